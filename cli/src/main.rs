@@ -1,0 +1,95 @@
+//! The `relief` command-line tool: terrain algorithms from `relief-core` on real elevation data.
+//!
+//! Every subcommand prints human-readable text, or one JSON object with `--json`. Every failure
+//! prints a single line `relief: error: ...` on stderr and exits with code 2.
+#![deny(missing_docs)]
+
+mod args;
+mod cmd;
+
+use clap::{Parser, Subcommand};
+use std::io::Write;
+use std::process::ExitCode;
+
+/// Terrain algorithms on real elevation data.
+#[derive(Debug, Parser)]
+#[command(name = "relief", version, about, max_term_width = 100)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Print size and height statistics of a DEM.
+    Info(cmd::info::InfoArgs),
+}
+
+/// A failure to report: one line, exit code 2.
+#[derive(Debug)]
+pub struct CliError(pub String);
+
+impl<E: std::fmt::Display> From<E> for CliError {
+    fn from(e: E) -> Self {
+        CliError(e.to_string())
+    }
+}
+
+/// Result of a subcommand.
+pub type CliResult<T = ()> = Result<T, CliError>;
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            use clap::error::ErrorKind;
+            if matches!(e.kind(), ErrorKind::DisplayHelp | ErrorKind::DisplayVersion)
+                || matches!(
+                    e.kind(),
+                    ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand
+                )
+            {
+                let _ = e.print();
+                return if e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand {
+                    ExitCode::from(2)
+                } else {
+                    ExitCode::SUCCESS
+                };
+            }
+            let text = e.to_string();
+            let first = text
+                .lines()
+                .find(|l| !l.trim().is_empty())
+                .unwrap_or("invalid arguments");
+            let first = first.trim_start_matches("error: ");
+            eprintln_safe(&format!("relief: error: {first} (see relief --help)"));
+            return ExitCode::from(2);
+        }
+    };
+    let result = match cli.command {
+        Command::Info(a) => cmd::info::run(&a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(CliError(msg)) => {
+            let one_line = msg.split_whitespace().collect::<Vec<_>>().join(" ");
+            eprintln_safe(&format!("relief: error: {one_line}"));
+            ExitCode::from(2)
+        }
+    }
+}
+
+/// Writes a line to stderr, ignoring a closed stream (never panics).
+fn eprintln_safe(line: &str) {
+    let _ = writeln!(std::io::stderr().lock(), "{line}");
+}
+
+/// Writes text to stdout; a closed pipe is not an error worth a panic.
+pub fn print_out(text: &str) -> CliResult {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Ok(()) => Ok(()),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(CliError(format!("cannot write to stdout: {e}"))),
+    }
+}

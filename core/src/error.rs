@@ -1,0 +1,105 @@
+//! The crate's one error type.
+
+use core::fmt;
+
+/// Everything that can go wrong in `relief-core`.
+///
+/// Every variant carries enough to name the problem (the offending sample, the parameter and its
+/// value, the size that was needed). No variant allocates.
+///
+/// ```
+/// use relief_core::{Error, Heightfield};
+/// let err = Heightfield::new(&[1u16, 2, 3], 2, 2).unwrap_err();
+/// assert_eq!(err, Error::LengthMismatch { expected: 4, actual: 3 });
+/// assert_eq!(err.to_string(), "sample count 3 does not match width x height = 4");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[non_exhaustive]
+pub enum Error {
+    /// The grid is smaller than 2 x 2 samples (a heightfield needs at least one cell).
+    TooSmall {
+        /// Columns given.
+        width: u32,
+        /// Rows given.
+        height: u32,
+    },
+    /// The number of samples does not equal `width * height`.
+    LengthMismatch {
+        /// `width * height`.
+        expected: usize,
+        /// Samples given.
+        actual: usize,
+    },
+    /// A size computation overflowed (`width * height`, or a composed grid's size).
+    SizeOverflow,
+    /// A scalar parameter is NaN, infinite, not positive, or outside its documented range.
+    InvalidParameter {
+        /// The parameter's name as in the API (`dx`, `z_scale`, ...).
+        name: &'static str,
+        /// The value given.
+        value: f32,
+    },
+    /// A sample is NaN or infinite, or its world height `h * z_scale + z_offset` is outside
+    /// `±MAX_ABS_HEIGHT`.
+    BadSample {
+        /// Column of the first bad sample.
+        x: u32,
+        /// Row of the first bad sample.
+        y: u32,
+    },
+    /// A detail subdivision factor that is zero or not a power of two.
+    InvalidFactor {
+        /// The factor given.
+        factor: u32,
+    },
+    /// A caller-provided buffer is too small.
+    BufferTooSmall {
+        /// Elements needed.
+        needed: usize,
+        /// Elements provided.
+        actual: usize,
+    },
+    /// A grid coordinate lies outside the heightfield.
+    OutOfBounds {
+        /// Column asked for.
+        x: u32,
+        /// Row asked for.
+        y: u32,
+    },
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Error::TooSmall { width, height } => {
+                write!(
+                    f,
+                    "grid of {width}x{height} samples is too small (at least 2x2)"
+                )
+            }
+            Error::LengthMismatch { expected, actual } => write!(
+                f,
+                "sample count {actual} does not match width x height = {expected}"
+            ),
+            Error::SizeOverflow => f.write_str("grid size overflows"),
+            Error::InvalidParameter { name, value } => {
+                write!(f, "invalid {name}: {value} (must be finite and positive)")
+            }
+            Error::BadSample { x, y } => {
+                write!(f, "sample at x={x}, y={y} is NaN, infinite or out of range")
+            }
+            Error::InvalidFactor { factor } => write!(
+                f,
+                "detail factor {factor} is not a power of two of at least 1"
+            ),
+            Error::BufferTooSmall { needed, actual } => {
+                write!(f, "buffer holds {actual} elements, {needed} needed")
+            }
+            Error::OutOfBounds { x, y } => {
+                write!(f, "grid coordinate ({x}, {y}) is outside the heightfield")
+            }
+        }
+    }
+}
+
+impl core::error::Error for Error {}
