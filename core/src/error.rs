@@ -59,6 +59,18 @@ pub enum Error {
         /// Elements provided.
         actual: usize,
     },
+    /// A camera that cannot be used: non-finite input, eye equal to target, or a view straight
+    /// up or down (CONVENTIONS.md).
+    InvalidCamera {
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// An input vector or point (a ray origin or direction, a position) is NaN or infinite, or a
+    /// direction is zero.
+    NonFiniteInput {
+        /// Which input.
+        name: &'static str,
+    },
     /// A grid coordinate lies outside the heightfield.
     OutOfBounds {
         /// Column asked for.
@@ -95,6 +107,8 @@ impl fmt::Display for Error {
             Error::BufferTooSmall { needed, actual } => {
                 write!(f, "buffer holds {actual} elements, {needed} needed")
             }
+            Error::InvalidCamera { reason } => write!(f, "invalid camera: {reason}"),
+            Error::NonFiniteInput { name } => write!(f, "{name} is NaN, infinite or zero"),
             Error::OutOfBounds { x, y } => {
                 write!(f, "grid coordinate ({x}, {y}) is outside the heightfield")
             }

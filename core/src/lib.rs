@@ -34,12 +34,14 @@
 #![deny(rustdoc::broken_intra_doc_links)]
 #![forbid(unsafe_code)]
 
+mod camera;
 mod compose;
 mod error;
 mod heightfield;
 mod normals;
 mod sample;
 
+pub use camera::Camera;
 pub use compose::Composed;
 pub use error::Error;
 pub use heightfield::{Heightfield, Scale, Surface, Terrain, MAX_ABS_HEIGHT, MIN_SCALE};
