@@ -7,7 +7,7 @@
 //! composed surface by summing height differences of base and detail before forming the normal,
 //! which [`Composed::summed_normal`] implements.
 
-use crate::heightfield::{Scale, Terrain};
+use crate::heightfield::{lerp, Scale, Terrain};
 use crate::normals::{central_gradient, normal_from_gradient};
 use crate::{Error, Heightfield, Sample};
 use glam::Vec3;
@@ -137,9 +137,7 @@ impl<'a, B: Sample, D: Sample> Composed<'a, B, D> {
         let (bx, fx) = self.split(x.min(self.width - 1), self.base.width());
         let (by, fy) = self.split(y.min(self.height - 1), self.base.height());
         let [h00, h10, h01, h11] = self.base.cell_corners(bx, by);
-        let a = h00 + fx * (h10 - h00);
-        let b = h01 + fx * (h11 - h01);
-        a + fy * (b - a)
+        lerp(lerp(h00, h10, fx), lerp(h01, h11, fx), fy)
     }
 
     /// World height of the tiled detail alone at composed sample `(x, y)` (wrapping).

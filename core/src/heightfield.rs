@@ -253,19 +253,15 @@ pub trait Terrain {
         let fy = gy - cy as f32;
         let [h00, h10, h01, h11] = self.cell_corners(cx, cy);
         Some(match surface {
-            Surface::Bilinear => {
-                let a = h00 + fx * (h10 - h00);
-                let b = h01 + fx * (h11 - h01);
-                a + fy * (b - a)
-            }
-            // Triangles (the only other variant).
+            Surface::Bilinear => lerp(lerp(h00, h10, fx), lerp(h01, h11, fx), fy),
+            // Triangles (the only other variant). Barycentric weights, exact at the corners.
             _ => {
                 if fx >= fy {
                     // (x,y) (x+1,y) (x+1,y+1)
-                    h00 + fx * (h10 - h00) + fy * (h11 - h10)
+                    (1.0 - fx) * h00 + (fx - fy) * h10 + fy * h11
                 } else {
                     // (x,y) (x+1,y+1) (x,y+1)
-                    h00 + fx * (h11 - h01) + fy * (h01 - h00)
+                    (1.0 - fy) * h00 + (fy - fx) * h01 + fx * h11
                 }
             }
         })
@@ -421,4 +417,11 @@ impl<S: Sample> Terrain for Heightfield<'_, S> {
             .get(y * self.width as usize + x)
             .map_or(0.0, |s| s.to_f32() * self.scale.z_scale)
     }
+}
+
+/// `(1 - t) a + t b`: exact at `t = 0` and `t = 1`, so interpolated surfaces pass exactly
+/// through the samples.
+#[inline(always)]
+pub(crate) fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    (1.0 - t) * a + t * b
 }
