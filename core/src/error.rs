@@ -78,6 +78,31 @@ pub enum Error {
         /// Row asked for.
         y: u32,
     },
+    /// An adaptive-grid cell size parameter (`min_cell`, `max_cell`) that is zero, not a power
+    /// of two, above [`MAX_CELL_SIZE`](crate::rbf::MAX_CELL_SIZE), or out of order.
+    InvalidCellSize {
+        /// The parameter's name (`min_cell`, `max_cell`).
+        name: &'static str,
+        /// The value given.
+        value: u32,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// A cell of an adaptive-grid cell list that cannot be used: its size is not a power of two,
+    /// it leaves the domain, it overlaps another cell, or its value is not finite.
+    InvalidCell {
+        /// Position of the cell in the list.
+        index: usize,
+        /// What is wrong.
+        reason: &'static str,
+    },
+    /// A cell list does not tile the domain: no cell covers this sample.
+    UncoveredSample {
+        /// Column of the first uncovered sample.
+        x: u32,
+        /// Row of the first uncovered sample.
+        y: u32,
+    },
 }
 
 impl fmt::Display for Error {
@@ -95,7 +120,10 @@ impl fmt::Display for Error {
             ),
             Error::SizeOverflow => f.write_str("grid size overflows"),
             Error::InvalidParameter { name, value } => {
-                write!(f, "invalid {name}: {value} (must be finite and positive)")
+                write!(
+                    f,
+                    "invalid {name}: {value} (must be finite, positive and in range)"
+                )
             }
             Error::BadSample { x, y } => {
                 write!(f, "sample at x={x}, y={y} is NaN, infinite or out of range")
@@ -111,6 +139,18 @@ impl fmt::Display for Error {
             Error::NonFiniteInput { name } => write!(f, "{name} is NaN, infinite or zero"),
             Error::OutOfBounds { x, y } => {
                 write!(f, "grid coordinate ({x}, {y}) is outside the heightfield")
+            }
+            Error::InvalidCellSize {
+                name,
+                value,
+                reason,
+            } => write!(f, "invalid {name}: {value} ({reason})"),
+            Error::InvalidCell { index, reason } => write!(f, "invalid cell {index}: {reason}"),
+            Error::UncoveredSample { x, y } => {
+                write!(
+                    f,
+                    "no cell covers sample ({x}, {y}): the cells do not tile the domain"
+                )
             }
         }
     }

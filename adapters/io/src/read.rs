@@ -80,8 +80,8 @@ impl Format {
     ///
     /// ```
     /// use relief_io::Format;
-    /// assert_eq!(Format::guess(b"II*\0rest", "a.bin".as_ref()), Ok(Format::Tiff));
-    /// assert_eq!(Format::guess(b"\0\0\0\0", "a.f32".as_ref()), Ok(Format::RawF32));
+    /// assert_eq!(Format::guess(b"II*\0rest", "a.bin".as_ref()).unwrap(), Format::Tiff);
+    /// assert_eq!(Format::guess(b"\0\0\0\0", "a.f32".as_ref()).unwrap(), Format::RawF32);
     /// assert!(Format::guess(b"hello", "a.txt".as_ref()).is_err());
     /// ```
     pub fn guess(bytes: &[u8], path: &Path) -> Result<Format, IoError> {
