@@ -41,11 +41,14 @@ mod heightfield;
 mod normals;
 mod sample;
 
+pub mod rbf;
+
 pub use camera::Camera;
 pub use compose::Composed;
 pub use error::Error;
 pub use heightfield::{Heightfield, Scale, Surface, Terrain, MAX_ABS_HEIGHT, MIN_SCALE};
 pub use normals::{normal, normal_from_gradient, normal_map, NormalMethod};
 pub use sample::Sample;
+pub use rbf::{AdaptiveGrid, Cascades, InfluenceSets, Rbf};
 
 pub use glam;
