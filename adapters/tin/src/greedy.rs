@@ -1,0 +1,512 @@
+//! Greedy-insertion Delaunay TIN.
+//!
+//! Implements algorithm III ("greedy insertion with Delaunay triangulation, only the changed
+//! triangles rescanned, candidates kept in a heap") of Garland & Heckbert, *Fast polygonal
+//! approximation of terrains and height fields*, CMU-CS-95-181 (1995), sections 4 and 5, on
+//! spade's incremental [`DelaunayTriangulation`]:
+//!
+//! 1. Triangulate the four corners of the domain (so the mesh covers exactly the domain).
+//! 2. For every triangle, scan the grid samples it covers (exact integer rasterisation) and keep
+//!    its *candidate*: the sample with the largest vertical error `|h - plane|`. Candidates live
+//!    in a max-heap; an entry carries the generation of its face and is ignored when popped if
+//!    the face has been rescanned since (lazy invalidation).
+//! 3. Pop the worst candidate, insert it into the triangulation, and rescan only the faces
+//!    incident to the new vertex: Delaunay insertion (split, then Lawson flips) changes no other
+//!    face, since every flip it makes creates an edge from the new vertex.
+//! 4. Stop when the worst candidate's error is at most the requested error, or before a vertex or
+//!    triangle budget would be exceeded.
+//!
+//! The error a candidate carries is the mesh vertical error of CONVENTIONS.md at that sample, in
+//! world z units (`z_scale` applied; `z_offset` cancels), so when the build stops on error the
+//! worst remaining candidate *is* the mesh's measured error, bit for bit equal to what
+//! [`mesh_error`](crate::mesh_error) reports.
+
+use crate::scan::{for_each_span, local_heights, Plane};
+use crate::MeshError;
+use relief_core::{Error, Terrain};
+use spade::handles::{FixedFaceHandle, FixedVertexHandle, InnerTag};
+use spade::{DelaunayTriangulation, HierarchyHintGenerator, Point2, Triangulation};
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+type Dt = DelaunayTriangulation<Point2<f64>, (), (), (), HierarchyHintGenerator<f64>>;
+
+/// Options of [`Tin::build`]: the error to reach and the budgets not to exceed.
+///
+/// Defaults: `max_error = 0` (reproduce the `triangles` surface exactly), no vertex budget
+/// (`u32::MAX`), no triangle budget (`u32::MAX`). The build stops at whichever limit it meets
+/// first.
+///
+/// ```
+/// use relief_tin::TinOptions;
+/// let o = TinOptions::default().with_max_error(2.5).with_max_vertices(1000);
+/// assert_eq!((o.max_error, o.max_vertices, o.max_triangles), (2.5, 1000, u32::MAX));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TinOptions {
+    /// Stop once the mesh vertical error (world z units) is at most this (default 0).
+    pub max_error: f32,
+    /// Never have more vertices than this; at least 4, the domain's corners (default `u32::MAX`).
+    pub max_vertices: u32,
+    /// Never have more triangles than this; at least 2 (default `u32::MAX`).
+    pub max_triangles: u32,
+}
+
+impl Default for TinOptions {
+    fn default() -> Self {
+        TinOptions {
+            max_error: 0.0,
+            max_vertices: u32::MAX,
+            max_triangles: u32::MAX,
+        }
+    }
+}
+
+impl TinOptions {
+    /// Returns the options with the error target `max_error` (world z units, default 0).
+    ///
+    /// ```
+    /// assert_eq!(relief_tin::TinOptions::default().with_max_error(1.0).max_error, 1.0);
+    /// ```
+    #[must_use]
+    pub fn with_max_error(mut self, max_error: f32) -> Self {
+        self.max_error = max_error;
+        self
+    }
+
+    /// Returns the options with the vertex budget `max_vertices` (default `u32::MAX`).
+    ///
+    /// ```
+    /// assert_eq!(relief_tin::TinOptions::default().with_max_vertices(9).max_vertices, 9);
+    /// ```
+    #[must_use]
+    pub fn with_max_vertices(mut self, max_vertices: u32) -> Self {
+        self.max_vertices = max_vertices;
+        self
+    }
+
+    /// Returns the options with the triangle budget `max_triangles` (default `u32::MAX`).
+    ///
+    /// ```
+    /// assert_eq!(relief_tin::TinOptions::default().with_max_triangles(8).max_triangles, 8);
+    /// ```
+    #[must_use]
+    pub fn with_max_triangles(mut self, max_triangles: u32) -> Self {
+        self.max_triangles = max_triangles;
+        self
+    }
+
+    /// Checks the options: `max_error` finite and not negative, `max_vertices >= 4`,
+    /// `max_triangles >= 2`; otherwise [`Error::InvalidParameter`] naming the field.
+    ///
+    /// ```
+    /// use relief_core::Error;
+    /// use relief_tin::TinOptions;
+    /// assert!(TinOptions::default().validate().is_ok());
+    /// let nan = TinOptions::default().with_max_error(f32::NAN).validate().unwrap_err();
+    /// assert!(matches!(nan, Error::InvalidParameter { name: "max_error", .. }));
+    /// assert_eq!(
+    ///     TinOptions::default().with_max_vertices(3).validate(),
+    ///     Err(Error::InvalidParameter { name: "max_vertices", value: 3.0 })
+    /// );
+    /// ```
+    pub fn validate(&self) -> Result<(), Error> {
+        if !(self.max_error.is_finite() && self.max_error >= 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "max_error",
+                value: self.max_error,
+            });
+        }
+        if self.max_vertices < 4 {
+            return Err(Error::InvalidParameter {
+                name: "max_vertices",
+                value: self.max_vertices as f32,
+            });
+        }
+        if self.max_triangles < 2 {
+            return Err(Error::InvalidParameter {
+                name: "max_triangles",
+                value: self.max_triangles as f32,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Why [`Tin::build`] stopped.
+///
+/// ```
+/// use relief_core::Heightfield;
+/// use relief_tin::{StopReason, Tin, TinOptions};
+/// let hf = Heightfield::new(&[0.0f32; 9], 3, 3).unwrap();
+/// let tin = Tin::build(&hf, &TinOptions::default()).unwrap();
+/// assert_eq!(tin.stop_reason(), StopReason::ErrorReached);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum StopReason {
+    /// The mesh error is at most [`TinOptions::max_error`].
+    ErrorReached,
+    /// One more vertex would exceed [`TinOptions::max_vertices`].
+    VertexBudget,
+    /// One more insertion could exceed [`TinOptions::max_triangles`].
+    TriangleBudget,
+}
+
+/// A triangulated irregular network over a terrain's grid, built by greedy insertion.
+///
+/// Vertices are grid samples `[x, y]` (column, row), in insertion order: the four domain corners
+/// `(0, 0)`, `(w-1, 0)`, `(w-1, h-1)`, `(0, h-1)` first, then the samples in the order the
+/// greedy algorithm picked them. Triangles index the vertices, counter-clockwise seen from +z
+/// (CONVENTIONS.md), and tile the domain exactly.
+///
+/// ```
+/// use relief_core::Heightfield;
+/// use relief_tin::{Tin, TinOptions};
+/// // A single spike in the middle of a flat 3 x 3 grid.
+/// let mut s = [0.0f32; 9];
+/// s[1 * 3 + 1] = 10.0;
+/// let hf = Heightfield::new(&s, 3, 3).unwrap();
+/// let tin = Tin::build(&hf, &TinOptions::default().with_max_error(0.0)).unwrap();
+/// assert_eq!(tin.vertices().len(), 5);
+/// assert_eq!(tin.vertices()[4], [1, 1]);
+/// assert_eq!(tin.triangles().len(), 4);
+/// assert_eq!(tin.max_error(), 0.0);
+/// assert_eq!(tin.measure(&hf).unwrap().max, 0.0);
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct Tin {
+    width: u32,
+    height: u32,
+    vertices: Vec<[u32; 2]>,
+    triangles: Vec<[u32; 3]>,
+    max_error: f64,
+    stop: StopReason,
+}
+
+/// A heap entry: the candidate of one face at one generation.
+#[derive(Debug, Clone, Copy)]
+struct Entry {
+    err: f64,
+    face: u32,
+    generation: u32,
+    /// A vertex of the face: where spade's point location starts walking.
+    hint: u32,
+    x: u32,
+    y: u32,
+}
+
+impl PartialEq for Entry {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+impl Eq for Entry {}
+impl PartialOrd for Entry {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Entry {
+    fn cmp(&self, other: &Self) -> Ordering {
+        // Largest error first; among equal errors the lower face index (deterministic).
+        self.err
+            .total_cmp(&other.err)
+            .then_with(|| other.face.cmp(&self.face))
+            .then_with(|| other.generation.cmp(&self.generation))
+    }
+}
+
+/// Worst sample of a triangle: `(error, x, y)`; error 0 and the first corner when the triangle
+/// covers no sample but its corners.
+fn scan_triangle(heights: &[f32], width: usize, c: [(i64, i64); 3]) -> (f64, u32, u32) {
+    let z = |x: i64, y: i64| {
+        f64::from(
+            heights
+                .get(y as usize * width + x as usize)
+                .map_or(0.0, |&h| h),
+        )
+    };
+    let mut best = (0.0f64, c[0].0 as u32, c[0].1 as u32);
+    let Some(plane) = Plane::new([
+        (c[0].0, c[0].1, z(c[0].0, c[0].1)),
+        (c[1].0, c[1].1, z(c[1].0, c[1].1)),
+        (c[2].0, c[2].1, z(c[2].0, c[2].1)),
+    ]) else {
+        return best;
+    };
+    let mut best_err = 0.0f64;
+    let (mut bx, mut by) = (c[0].0, c[0].1);
+    for_each_span(c[0], c[1], c[2], |y, lo, hi| {
+        let base = y as usize * width;
+        let Some(row) = heights.get(base + lo as usize..=base + hi as usize) else {
+            return;
+        };
+        let r = plane.row(y);
+        for (x, &h) in (lo..).zip(row) {
+            let d = (f64::from(h) - plane.at_row(x, r)).abs();
+            if d > best_err && !c.contains(&(x, y)) {
+                best_err = d;
+                bx = x;
+                by = y;
+            }
+        }
+    });
+    if best_err > 0.0 {
+        best = (best_err, bx as u32, by as u32);
+    }
+    best
+}
+
+/// Mutable state of one greedy build.
+struct Builder<'h> {
+    heights: &'h [f32],
+    width: usize,
+    dt: Dt,
+    generation: Vec<u32>,
+    heap: BinaryHeap<Entry>,
+}
+
+impl Builder<'_> {
+    fn scan_face(&mut self, face: FixedFaceHandle<InnerTag>) {
+        let f = self.dt.face(face);
+        let c = f.positions().map(|p| (p.x as i64, p.y as i64));
+        let hint = f.adjacent_edge().from().fix().index() as u32;
+        let (err, x, y) = scan_triangle(self.heights, self.width, c);
+        let i = face.index();
+        if self.generation.len() <= i {
+            self.generation.resize(i + 1, 0);
+        }
+        let Some(g) = self.generation.get_mut(i) else {
+            return;
+        };
+        *g = g.wrapping_add(1);
+        self.heap.push(Entry {
+            err,
+            face: i as u32,
+            generation: *g,
+            hint,
+            x,
+            y,
+        });
+    }
+
+    fn is_current(&self, e: &Entry) -> bool {
+        self.generation.get(e.face as usize) == Some(&e.generation)
+    }
+
+    /// Inserts sample `(x, y)` (walking from vertex `hint`); rescans the faces around the new vertex. Returns
+    /// false if the triangulation did not gain a vertex (cannot happen for a candidate, which is
+    /// never an existing vertex; checked so the loop always progresses).
+    fn insert(&mut self, hint: u32, x: u32, y: u32) -> bool {
+        let before = self.dt.num_vertices();
+        let hint = FixedVertexHandle::from_index(hint as usize);
+        let Ok(v) = self
+            .dt
+            .insert_with_hint(Point2::new(f64::from(x), f64::from(y)), hint)
+        else {
+            return false;
+        };
+        if self.dt.num_vertices() != before + 1 {
+            return false;
+        }
+        let faces: Vec<FixedFaceHandle<InnerTag>> = self
+            .dt
+            .vertex(v)
+            .out_edges()
+            .filter_map(|e| e.face().as_inner().map(|f| f.fix()))
+            .collect();
+        for f in faces {
+            self.scan_face(f);
+        }
+        true
+    }
+}
+
+impl Tin {
+    /// Builds a TIN of `terrain` by greedy insertion (see the [module docs](crate)) until the
+    /// mesh vertical error is at most `options.max_error` or a budget would be exceeded.
+    ///
+    /// Works on any [`Terrain`] (a [`Heightfield`](relief_core::Heightfield) or a
+    /// [`Composed`](relief_core::Composed) surface) of any size. Errors:
+    /// [`Error::InvalidParameter`] from [`TinOptions::validate`], [`Error::SizeOverflow`] when the
+    /// grid has more than `u32::MAX` samples.
+    ///
+    /// ```
+    /// use relief_core::{Error, Heightfield};
+    /// use relief_tin::{Tin, TinOptions};
+    /// let s: Vec<f32> = (0..64).map(|i| ((i * 37) % 11) as f32).collect();
+    /// let hf = Heightfield::new(&s, 8, 8).unwrap();
+    /// let tin = Tin::build(&hf, &TinOptions::default().with_max_error(2.0)).unwrap();
+    /// assert!(tin.max_error() <= 2.0);
+    /// assert_eq!(tin.measure(&hf).unwrap().max, tin.max_error());
+    /// let bad = TinOptions::default().with_max_error(-1.0);
+    /// assert!(matches!(Tin::build(&hf, &bad), Err(Error::InvalidParameter { .. })));
+    /// ```
+    pub fn build<T: Terrain + ?Sized>(terrain: &T, options: &TinOptions) -> Result<Tin, Error> {
+        options.validate()?;
+        let (w, h) = (terrain.width(), terrain.height());
+        if u64::from(w) * u64::from(h) > u64::from(u32::MAX) {
+            return Err(Error::SizeOverflow);
+        }
+        let heights = local_heights(terrain)?;
+        let mut b = Builder {
+            heights: &heights,
+            width: w as usize,
+            dt: Dt::new(),
+            generation: Vec::new(),
+            heap: BinaryHeap::new(),
+        };
+        let (x1, y1) = (f64::from(w - 1), f64::from(h - 1));
+        for p in [(0.0, 0.0), (x1, 0.0), (x1, y1), (0.0, y1)] {
+            b.dt.insert(Point2::new(p.0, p.1))
+                .map_err(|_| Error::SizeOverflow)?;
+        }
+        let faces: Vec<_> = b.dt.fixed_inner_faces().collect();
+        for f in faces {
+            b.scan_face(f);
+        }
+        let limit = f64::from(options.max_error);
+        let mut max_error = 0.0;
+        let mut stop = StopReason::ErrorReached;
+        // Each pass pops one entry: either a stale one, or a current one whose sample becomes a
+        // new vertex. Vertices are distinct grid samples and every insertion pushes a bounded
+        // number of entries, so the loop ends.
+        while let Some(top) = b.heap.peek().copied() {
+            if !b.is_current(&top) {
+                b.heap.pop();
+                continue;
+            }
+            max_error = top.err;
+            if top.err <= limit {
+                break;
+            }
+            if b.dt.num_vertices() >= options.max_vertices as usize {
+                stop = StopReason::VertexBudget;
+                break;
+            }
+            if b.dt.num_inner_faces() + 2 > options.max_triangles as usize {
+                stop = StopReason::TriangleBudget;
+                break;
+            }
+            b.heap.pop();
+            if !b.insert(top.hint, top.x, top.y) {
+                // Unreachable for a valid triangulation; drop the candidate rather than loop.
+                continue;
+            }
+        }
+        let vertices =
+            b.dt.vertices()
+                .map(|v| {
+                    let p = v.position();
+                    [p.x as u32, p.y as u32]
+                })
+                .collect();
+        let triangles =
+            b.dt.inner_faces()
+                .map(|f| f.vertices().map(|v| v.fix().index() as u32))
+                .collect();
+        Ok(Tin {
+            width: w,
+            height: h,
+            vertices,
+            triangles,
+            max_error,
+            stop,
+        })
+    }
+
+    /// Grid size `(width, height)` of the terrain the TIN was built on.
+    ///
+    /// ```
+    /// let hf = relief_core::Heightfield::new(&[0u8; 6], 3, 2).unwrap();
+    /// let tin = relief_tin::Tin::build(&hf, &Default::default()).unwrap();
+    /// assert_eq!(tin.size(), (3, 2));
+    /// ```
+    #[must_use]
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    /// The vertices as grid samples `[x, y]`, corners first, then in insertion order.
+    ///
+    /// ```
+    /// let hf = relief_core::Heightfield::new(&[0u8; 6], 3, 2).unwrap();
+    /// let tin = relief_tin::Tin::build(&hf, &Default::default()).unwrap();
+    /// assert_eq!(tin.vertices(), &[[0, 0], [2, 0], [2, 1], [0, 1]]);
+    /// ```
+    #[must_use]
+    pub fn vertices(&self) -> &[[u32; 2]] {
+        &self.vertices
+    }
+
+    /// The triangles, vertex indices counter-clockwise seen from +z.
+    ///
+    /// ```
+    /// let hf = relief_core::Heightfield::new(&[0u8; 6], 3, 2).unwrap();
+    /// let tin = relief_tin::Tin::build(&hf, &Default::default()).unwrap();
+    /// assert_eq!(tin.triangles().len(), 2);
+    /// ```
+    #[must_use]
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// The worst remaining vertical error (world z units) when the build stopped; equal to the
+    /// measured mesh error ([`Tin::measure`]).
+    ///
+    /// ```
+    /// let hf = relief_core::Heightfield::new(&[0.0f32, 0.0, 0.0, 0.0, 3.0, 0.0], 3, 2).unwrap();
+    /// let o = relief_tin::TinOptions::default().with_max_vertices(4);
+    /// let tin = relief_tin::Tin::build(&hf, &o).unwrap();
+    /// assert_eq!(tin.max_error(), 3.0);
+    /// ```
+    #[must_use]
+    pub fn max_error(&self) -> f64 {
+        self.max_error
+    }
+
+    /// Why the build stopped.
+    ///
+    /// ```
+    /// use relief_tin::{StopReason, Tin, TinOptions};
+    /// let hf = relief_core::Heightfield::new(&[0.0f32, 0.0, 0.0, 0.0, 3.0, 0.0], 3, 2).unwrap();
+    /// let tin = Tin::build(&hf, &TinOptions::default().with_max_triangles(2)).unwrap();
+    /// assert_eq!(tin.stop_reason(), StopReason::TriangleBudget);
+    /// ```
+    #[must_use]
+    pub fn stop_reason(&self) -> StopReason {
+        self.stop
+    }
+
+    /// World positions `[x * dx, y * dy, z]` of the vertices, for
+    /// [`relief_io::write_obj`](https://docs.rs/relief-io)-style consumers. `terrain` should be
+    /// the one the TIN was built on (heights are read from it; coordinates are clamped into it).
+    ///
+    /// ```
+    /// use relief_core::{Heightfield, Scale};
+    /// let s = [1.0f32, 2.0, 3.0, 4.0];
+    /// let hf = Heightfield::with_scale(&s, 2, 2, Scale::default().with_spacing(10.0, 20.0)).unwrap();
+    /// let tin = relief_tin::Tin::build(&hf, &Default::default()).unwrap();
+    /// assert_eq!(tin.positions(&hf)[2], [10.0, 20.0, 4.0]);
+    /// ```
+    #[must_use]
+    pub fn positions<T: Terrain + ?Sized>(&self, terrain: &T) -> Vec<[f32; 3]> {
+        let s = terrain.scale();
+        self.vertices
+            .iter()
+            .map(|&[x, y]| [x as f32 * s.dx, y as f32 * s.dy, terrain.z(x, y)])
+            .collect()
+    }
+
+    /// Measures the mesh against `terrain` with the full-grid scan of
+    /// [`mesh_error`](crate::mesh_error).
+    ///
+    /// ```
+    /// let hf = relief_core::Heightfield::new(&[0.0f32, 5.0, 1.0, 0.0], 2, 2).unwrap();
+    /// let tin = relief_tin::Tin::build(&hf, &Default::default()).unwrap();
+    /// assert_eq!(tin.measure(&hf).unwrap().max, 0.0);
+    /// ```
+    pub fn measure<T: Terrain + ?Sized>(&self, terrain: &T) -> Result<MeshError, Error> {
+        crate::mesh_error(terrain, &self.vertices, &self.triangles)
+    }
+}
