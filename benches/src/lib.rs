@@ -1,1 +1,2 @@
 //! Benchmarks live in `benches/benches/`.
+#![deny(missing_docs)]

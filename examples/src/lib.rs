@@ -1,1 +1,2 @@
 //! Examples live beside this crate: `cargo run -p relief-examples --example NAME`.
+#![deny(missing_docs)]

@@ -10,6 +10,16 @@ use std::path::Path;
 /// than a machine has).
 const MAX_DECODED_BYTES: usize = 4 << 30;
 
+/// The most a file of `len` bytes can honestly decode to: deflate expands at most 1032:1 and
+/// LZW at most about 2730:1 (4096 bytes per 12-bit code), so a header that claims more than
+/// `4096 * len` bytes (plus slack for tiny files) lies about its size, and is rejected before any
+/// buffer is allocated.
+fn decoded_limit(len: usize) -> usize {
+    len.saturating_mul(4096)
+        .saturating_add(1 << 20)
+        .min(MAX_DECODED_BYTES)
+}
+
 /// An elevation file format (CONVENTIONS.md, "Elevation input formats").
 ///
 /// ```
@@ -270,19 +280,22 @@ fn decode_err(format: Format, e: impl std::fmt::Display) -> IoError {
 }
 
 fn decode_png(bytes: &[u8], format: Format) -> Result<Raw, IoError> {
-    let mut decoder = png::Decoder::new_with_limits(
-        Cursor::new(bytes),
-        png::Limits {
-            bytes: MAX_DECODED_BYTES,
-        },
-    );
+    let limit = decoded_limit(bytes.len());
+    let mut decoder =
+        png::Decoder::new_with_limits(Cursor::new(bytes), png::Limits { bytes: limit });
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info().map_err(|e| decode_err(format, e))?;
     let size = reader
         .output_buffer_size()
         .ok_or_else(|| decode_err(format, "image too large"))?;
-    if size > MAX_DECODED_BYTES {
-        return Err(decode_err(format, "image too large"));
+    if size > limit {
+        return Err(decode_err(
+            format,
+            format!(
+                "header claims {size} bytes of image, more than {} bytes of file can hold",
+                bytes.len()
+            ),
+        ));
     }
     let mut buf = vec![0u8; size];
     let info = reader
@@ -360,9 +373,10 @@ fn decode_tiff(bytes: &[u8]) -> Result<Raw, IoError> {
     use tiff::decoder::{Decoder, DecodingResult, Limits};
     use tiff::tags::Tag;
     let f = Format::Tiff;
+    let limit = decoded_limit(bytes.len());
     let mut limits = Limits::default();
-    limits.decoding_buffer_size = MAX_DECODED_BYTES;
-    limits.intermediate_buffer_size = MAX_DECODED_BYTES;
+    limits.decoding_buffer_size = limit;
+    limits.intermediate_buffer_size = limit;
     let mut dec = Decoder::new(Cursor::new(bytes))
         .map_err(|e| decode_err(f, e))?
         .with_limits(limits);
