@@ -23,6 +23,8 @@ struct Cli {
 enum Command {
     /// Print size and height statistics of a DEM.
     Info(cmd::info::InfoArgs),
+    /// Adaptive grid + truncated Gaussian RBF approximation of a DEM (cells CSV, raw f32).
+    Rbf(cmd::rbf::RbfArgs),
 }
 
 /// A failure to report: one line, exit code 2.
@@ -67,6 +69,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Info(a) => cmd::info::run(&a),
+        Command::Rbf(a) => cmd::rbf::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
