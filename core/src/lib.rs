@@ -42,6 +42,7 @@ mod normals;
 mod sample;
 
 pub mod rbf;
+pub mod refine;
 
 pub use camera::Camera;
 pub use compose::Composed;
@@ -50,5 +51,6 @@ pub use heightfield::{Heightfield, Scale, Surface, Terrain, MAX_ABS_HEIGHT, MIN_
 pub use normals::{normal, normal_from_gradient, normal_map, NormalMethod};
 pub use sample::Sample;
 pub use rbf::{AdaptiveGrid, Cascades, InfluenceSets, Rbf};
+pub use refine::{Hierarchy, RefineGrid, Refiner};
 
 pub use glam;

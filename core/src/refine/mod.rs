@@ -1,0 +1,405 @@
+//! SOAR refinement of a heightfield by longest-edge bisection (Lindstrom & Pascucci, "Visualization
+//! of large terrains made easy", 2001, and "Terrain simplification simplified", 2002; Balogh 2003,
+//! seed 004, chapters 4.5 (SOAR), 5.1 (in/out-edge strip), 5.2 (lazy frustum culling) and 6.3
+//! (level-only bounding circles)).
+//!
+//! Two steps, both into caller buffers, no allocation:
+//! 1. **Preprocessing** ([`preprocess`], [`preprocess_compact`]): a nested L-infinity
+//!    object-space error per vertex (a *true* bound: every grid sample a triangle covers is within
+//!    the error of its split vertex) and nested bounding spheres, or the compact layout with
+//!    bfloat16 errors rounded up and seed 004's level-only bounding circles
+//!    `r_i = l_0 (1/sqrt 2)^i / (1 - 1/sqrt 2)`.
+//! 2. **Refinement** ([`Refiner`]), stateless, every frame from scratch: view-independent
+//!    (every vertex with error `> E`) or view-dependent (SOAR's projected error from the nearest
+//!    point of the bounding volume against a pixel threshold), with hierarchical frustum culling
+//!    (active-plane mask) and lazy culling below a chosen level. Output: an indexed triangle list,
+//!    SOAR's generalized triangle strip, or seed 004's in/out-edge strip.
+//!
+//! Bytes per vertex of preprocessed data (besides the heights, which stay in the caller's
+//! heightfield): 8 for [`preprocess`] (`f32` error and `f32` radius), 2 for
+//! [`preprocess_compact`] (`u16` error; radii come from the level). See
+//! [`Hierarchy::bytes_per_vertex`].
+//!
+//! Any `width x height` grid works: it is embedded in the enclosing `(2^k+1)^2` square; triangles
+//! outside the domain are never emitted and those crossing its border are always split, so the
+//! mesh covers exactly the domain (at the price of full-resolution triangles along a border whose
+//! coordinate is not a multiple of a large power of two).
+//!
+//! ```
+//! use relief_core::refine::{coverage_len, preprocess, scratch_len, triangle_bound};
+//! use relief_core::refine::{vertical_error, Criterion, Refiner};
+//! use relief_core::Heightfield;
+//! let samples: Vec<f32> = (0..25).map(|i| if i == 12 { 5.0 } else { 0.0 }).collect();
+//! let hf = Heightfield::new(&samples, 5, 5).unwrap();
+//! let (mut err, mut rad) = (vec![0.0; 25], vec![0.0; 25]);
+//! let h = preprocess(&hf, &mut err, &mut rad).unwrap();
+//! let r = Refiner::new(&h, &hf, Criterion::MaxError(1.0)).unwrap();
+//! let mut scratch = vec![0u64; scratch_len(5, 5)];
+//! let mut verts = vec![[0.0f32; 3]; 25];
+//! let mut tris = vec![[0u32; 3]; triangle_bound(5, 5)];
+//! let c = r.triangles(&mut scratch, &mut verts, &mut tris).unwrap();
+//! assert!(c.triangles < 32); // fewer than full resolution
+//! let (v, t) = (&verts[..c.vertices], &tris[..c.triangles]);
+//! let measured = vertical_error(&hf, v, t, &mut vec![0; coverage_len(5, 5)]).unwrap();
+//! assert!(measured <= 1.0);
+//! ```
+
+mod grid;
+mod preprocess;
+mod raster;
+mod scan;
+mod select;
+mod strip;
+#[cfg(test)]
+mod tests;
+
+pub use grid::RefineGrid;
+pub use scan::{coverage_len, vertical_error};
+pub use select::{Criterion, FrameCounts, MorphVertex, Refiner, StripCounts, View};
+
+use crate::{Error, Scale, Terrain};
+
+/// Length of the per-vertex arrays ([`preprocess`]'s `errors` and `radii`,
+/// [`preprocess_compact`]'s `errors`): `width * height` (saturating).
+///
+/// ```
+/// assert_eq!(relief_core::refine::hierarchy_len(1025, 1025), 1025 * 1025);
+/// ```
+#[must_use]
+pub const fn hierarchy_len(width: u32, height: u32) -> usize {
+    (width as usize).saturating_mul(height as usize)
+}
+
+/// Length of the `u64` scratch every refinement call needs: a bitmap of kept vertices and its
+/// rank prefix, `2 * ceil(width * height / 64)`.
+///
+/// ```
+/// assert_eq!(relief_core::refine::scratch_len(8, 8), 2);
+/// ```
+#[must_use]
+pub const fn scratch_len(width: u32, height: u32) -> usize {
+    2 * hierarchy_len(width, height).div_ceil(64)
+}
+
+/// Most vertices a mesh can have: `width * height`.
+///
+/// ```
+/// assert_eq!(relief_core::refine::vertex_bound(3, 3), 9);
+/// ```
+#[must_use]
+pub const fn vertex_bound(width: u32, height: u32) -> usize {
+    hierarchy_len(width, height)
+}
+
+/// Most triangles a mesh can have: `2 (width - 1) (height - 1)` (full resolution).
+///
+/// ```
+/// assert_eq!(relief_core::refine::triangle_bound(3, 3), 8);
+/// ```
+#[must_use]
+pub const fn triangle_bound(width: u32, height: u32) -> usize {
+    2usize
+        .saturating_mul(width.saturating_sub(1) as usize)
+        .saturating_mul(height.saturating_sub(1) as usize)
+}
+
+/// Most indices a triangle strip can have: `3 * triangle_bound + 8` (never reached: SOAR's strip
+/// needs about 1.6 and the in/out-edge strip about 1.3 indices per triangle).
+///
+/// ```
+/// assert_eq!(relief_core::refine::strip_bound(3, 3), 32);
+/// ```
+#[must_use]
+pub const fn strip_bound(width: u32, height: u32) -> usize {
+    triangle_bound(width, height)
+        .saturating_mul(3)
+        .saturating_add(8)
+}
+
+/// Per-vertex errors: `f32`, or bfloat16 codes rounded up.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum ErrorStore<'a> {
+    F32(&'a [f32]),
+    Bf16(&'a [u16]),
+}
+
+/// Preprocessed refinement data borrowed from caller arrays (see [`preprocess`]).
+///
+/// ```
+/// use relief_core::{refine::preprocess_compact, Heightfield};
+/// let hf = Heightfield::new(&[0.0f32; 9], 3, 3).unwrap();
+/// let mut e = [0u16; 9];
+/// let h = preprocess_compact(&hf, &mut e).unwrap();
+/// assert_eq!(h.bytes_per_vertex(), 2);
+/// assert_eq!(h.error(1, 1), Some(0.0));
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct Hierarchy<'a> {
+    grid: RefineGrid,
+    scale: Scale,
+    errors: ErrorStore<'a>,
+    radii: Option<&'a [f32]>,
+    z_min: f32,
+    z_max: f32,
+    /// Level-only circle radius per level (world units, rounded up, with a margin).
+    level_radius: [f32; 64],
+}
+
+impl<'a> Hierarchy<'a> {
+    pub(crate) fn assemble(
+        grid: RefineGrid,
+        scale: Scale,
+        errors: ErrorStore<'a>,
+        radii: Option<&'a [f32]>,
+        z_min: f32,
+        z_max: f32,
+    ) -> Self {
+        let mut level_radius = [0.0f32; 64];
+        let l0 = grid.side() as f64 * 0.5 * scale.dx.max(scale.dy) as f64;
+        let q = core::f64::consts::FRAC_1_SQRT_2;
+        let mut li = l0;
+        for r in level_radius.iter_mut().take(grid.levels() as usize) {
+            *r = preprocess::round_up(li / (1.0 - q) * (1.0 + preprocess::CIRCLE_MARGIN));
+            li *= q;
+        }
+        Hierarchy {
+            grid,
+            scale,
+            errors,
+            radii,
+            z_min,
+            z_max,
+            level_radius,
+        }
+    }
+
+    /// The grid and its enclosing square.
+    ///
+    /// ```
+    /// # use relief_core::{refine::preprocess_compact, Heightfield};
+    /// # let hf = Heightfield::new(&[0.0f32; 6], 3, 2).unwrap();
+    /// # let mut e = [0u16; 6];
+    /// let h = preprocess_compact(&hf, &mut e).unwrap();
+    /// assert_eq!(h.grid().side(), 2);
+    /// ```
+    #[must_use]
+    pub fn grid(&self) -> RefineGrid {
+        self.grid
+    }
+
+    /// Bytes of preprocessed data per vertex, heights not counted: 8 (`f32` error and radius)
+    /// or 2 (bfloat16 error, radius from the level).
+    ///
+    /// ```
+    /// # use relief_core::{refine::preprocess, Heightfield};
+    /// # let hf = Heightfield::new(&[0.0f32; 4], 2, 2).unwrap();
+    /// let (mut e, mut r) = ([0.0; 4], [0.0; 4]);
+    /// assert_eq!(preprocess(&hf, &mut e, &mut r).unwrap().bytes_per_vertex(), 8);
+    /// ```
+    #[must_use]
+    pub fn bytes_per_vertex(&self) -> usize {
+        match (self.errors, self.radii) {
+            (ErrorStore::F32(_), Some(_)) => 8,
+            (ErrorStore::F32(_), None) => 4,
+            (ErrorStore::Bf16(_), Some(_)) => 6,
+            (ErrorStore::Bf16(_), None) => 2,
+        }
+    }
+
+    /// Stored (nested, rounded-up) error of vertex `(x, y)` in world z units; `+inf` for
+    /// vertices that must always be in the mesh; `None` outside the grid.
+    ///
+    /// ```
+    /// # use relief_core::{refine::preprocess, Heightfield};
+    /// let hf = Heightfield::new(&[0.0f32, 0.0, 0.0, 0.0, 4.0, 0.0, 0.0, 0.0, 0.0], 3, 3).unwrap();
+    /// let (mut e, mut r) = ([0.0; 9], [0.0; 9]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// assert_eq!(h.error(1, 1), Some(4.0));
+    /// assert_eq!(h.error(0, 0), Some(f32::INFINITY));
+    /// ```
+    #[must_use]
+    pub fn error(&self, x: u32, y: u32) -> Option<f32> {
+        if x >= self.grid.width() || y >= self.grid.height() {
+            return None;
+        }
+        Some(self.err_at(y as usize * self.grid.width() as usize + x as usize))
+    }
+
+    /// Bounding radius of vertex `(x, y)` in world units: its sphere (full layout) or its
+    /// level's circle (compact layout); `None` outside the grid or for the square's corners.
+    ///
+    /// ```
+    /// # use relief_core::{refine::preprocess_compact, Heightfield};
+    /// # let hf = Heightfield::new(&[0.0f32; 9], 3, 3).unwrap();
+    /// # let mut e = [0u16; 9];
+    /// let h = preprocess_compact(&hf, &mut e).unwrap();
+    /// // Level 0 (the centre), l_0 = 1: r_0 = 1 / (1 - 1/sqrt 2) = 3.414...
+    /// assert!((h.radius(1, 1).unwrap() - 3.41421).abs() < 1e-3);
+    /// ```
+    #[must_use]
+    pub fn radius(&self, x: u32, y: u32) -> Option<f32> {
+        if x >= self.grid.width() || y >= self.grid.height() {
+            return None;
+        }
+        let level = self.grid.level(x, y)?;
+        Some(self.radius_at(y as usize * self.grid.width() as usize + x as usize, level))
+    }
+
+    #[inline(always)]
+    pub(crate) fn err_at(&self, i: usize) -> f32 {
+        match self.errors {
+            ErrorStore::F32(e) => e.get(i).copied().unwrap_or(f32::INFINITY),
+            ErrorStore::Bf16(e) => e
+                .get(i)
+                .map_or(f32::INFINITY, |&c| preprocess::decode_bf16(c)),
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn radius_at(&self, i: usize, level: u32) -> f32 {
+        match self.radii {
+            Some(r) => r.get(i).copied().unwrap_or(f32::INFINITY),
+            None => self
+                .level_radius
+                .get(level as usize)
+                .copied()
+                .unwrap_or(f32::INFINITY),
+        }
+    }
+
+    pub(crate) fn spheres(&self) -> bool {
+        self.radii.is_some()
+    }
+
+    pub(crate) fn scale(&self) -> Scale {
+        self.scale
+    }
+
+    pub(crate) fn z_range(&self) -> (f32, f32) {
+        (self.z_min, self.z_max)
+    }
+}
+
+/// Options of [`preprocess_with`].
+///
+/// ```
+/// use relief_core::refine::PreprocessOptions;
+/// assert!(PreprocessOptions::default().contain_diamond);
+/// assert!(!PreprocessOptions::default().with_contain_diamond(false).contain_diamond);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PreprocessOptions {
+    /// Make each bounding sphere contain its diamond's corners as well as its descendants'
+    /// spheres (default `true`). With `false` the spheres are SOAR 2002's (descendants only):
+    /// culling a finest-level vertex can then coarsen a triangle that is still in view (the
+    /// culling "pop" of seed 004, chapter 5.2), which lazy culling removes.
+    pub contain_diamond: bool,
+}
+
+impl Default for PreprocessOptions {
+    fn default() -> Self {
+        PreprocessOptions {
+            contain_diamond: true,
+        }
+    }
+}
+
+impl PreprocessOptions {
+    /// Sets [`PreprocessOptions::contain_diamond`].
+    ///
+    /// ```
+    /// let o = relief_core::refine::PreprocessOptions::default().with_contain_diamond(false);
+    /// assert!(!o.contain_diamond);
+    /// ```
+    #[must_use]
+    pub fn with_contain_diamond(mut self, yes: bool) -> Self {
+        self.contain_diamond = yes;
+        self
+    }
+}
+
+/// Full-layout preprocessing: `errors` and `radii` (each at least [`hierarchy_len`] long)
+/// receive the nested L-infinity error (world z units, rounded up) and the nested
+/// bounding-sphere radius (world units, with a relative margin of `2^-20` so that nesting holds
+/// in floating point) of every vertex. 8 bytes per vertex.
+///
+/// Cost: about `levels * 2 * width * height` sample visits.
+///
+/// ```
+/// use relief_core::{refine::preprocess, Error, Heightfield};
+/// let hf = Heightfield::new(&[0.0f32; 9], 3, 3).unwrap();
+/// let (mut e, mut r) = ([0.0; 9], [0.0; 8]);
+/// assert_eq!(
+///     preprocess(&hf, &mut e, &mut r).unwrap_err(),
+///     Error::BufferTooSmall { needed: 9, actual: 8 }
+/// );
+/// ```
+pub fn preprocess<'a, T: Terrain>(
+    terrain: &T,
+    errors: &'a mut [f32],
+    radii: &'a mut [f32],
+) -> Result<Hierarchy<'a>, Error> {
+    preprocess_with(terrain, errors, radii, PreprocessOptions::default())
+}
+
+/// [`preprocess`] with options.
+///
+/// ```
+/// use relief_core::refine::{preprocess_with, PreprocessOptions};
+/// use relief_core::Heightfield;
+/// let hf = Heightfield::new(&[0.0f32; 9], 3, 3).unwrap();
+/// let (mut e, mut r) = ([0.0; 9], [0.0; 9]);
+/// let o = PreprocessOptions::default().with_contain_diamond(false);
+/// let h = preprocess_with(&hf, &mut e, &mut r, o).unwrap();
+/// let r11 = h.radius(1, 1).unwrap(); // reaches the children (1 away), plus a margin
+/// assert!(r11 > 1.0 && r11 < 1.00001);
+/// ```
+pub fn preprocess_with<'a, T: Terrain>(
+    terrain: &T,
+    errors: &'a mut [f32],
+    radii: &'a mut [f32],
+    options: PreprocessOptions,
+) -> Result<Hierarchy<'a>, Error> {
+    let g = preprocess::check(terrain, errors.len())?;
+    preprocess::check(terrain, radii.len())?;
+    preprocess::build(
+        terrain,
+        &g,
+        &mut *errors,
+        Some(&mut *radii),
+        options.contain_diamond,
+    );
+    Ok(preprocess::finish(
+        terrain,
+        g,
+        ErrorStore::F32(errors),
+        Some(radii),
+    ))
+}
+
+/// Compact-layout preprocessing: `errors` (at least [`hierarchy_len`] long) receives each
+/// vertex's nested L-infinity error as a bfloat16 code rounded up (relative step `2^-7`, never
+/// below the true error); bounding volumes are seed 004's level-only circles, extended over the
+/// terrain's height range. 2 bytes per vertex.
+///
+/// ```
+/// use relief_core::{refine::preprocess_compact, Heightfield};
+/// let hf = Heightfield::new(&[0.0f32, 0.0, 0.0, 0.0, 3.3, 0.0, 0.0, 0.0, 0.0], 3, 3).unwrap();
+/// let mut e = [0u16; 9];
+/// let h = preprocess_compact(&hf, &mut e).unwrap();
+/// let stored = h.error(1, 1).unwrap();
+/// assert!(stored >= 3.3 && stored < 3.3 * 1.01);
+/// ```
+pub fn preprocess_compact<'a, T: Terrain>(
+    terrain: &T,
+    errors: &'a mut [u16],
+) -> Result<Hierarchy<'a>, Error> {
+    let g = preprocess::check(terrain, errors.len())?;
+    preprocess::build(terrain, &g, &mut *errors, None, true);
+    Ok(preprocess::finish(
+        terrain,
+        g,
+        ErrorStore::Bf16(errors),
+        None,
+    ))
+}

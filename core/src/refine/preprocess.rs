@@ -1,0 +1,240 @@
+//! Preprocessing for SOAR refinement (Lindstrom & Pascucci 2001/2002; Balogh 2003, seed 004,
+//! chapters 4.5 and 6): a true L-infinity object-space error per vertex, nested, and nested
+//! bounding spheres (or seed 004's level-only bounding circles).
+//!
+//! The error stored at a vertex is the maximum, over both closed triangles of its diamond, of
+//! `|h(sample) - plane(sample)|` for every grid sample in the triangle, each triangle measured
+//! against its own plane; then the maximum with every child's stored error (a child's error can
+//! exceed its parent's). It is rounded up when stored. A triangle is only ever emitted when its
+//! split vertex has stored error `<= E`, so every sample it covers is within `E` of it.
+
+use super::grid::{Class, RefineGrid};
+use super::raster::{for_each_span, Plane};
+use super::{ErrorStore, Hierarchy};
+use crate::{Error, Terrain};
+
+/// Relative inflation of bounding-sphere radii so that nesting survives floating point.
+const SPHERE_MARGIN: f64 = 1.0 / (1u64 << 20) as f64;
+/// Relative inflation of level-only circle radii (their exact nesting is an equality).
+pub(crate) const CIRCLE_MARGIN: f64 = 1.0 / (1u64 << 16) as f64;
+
+/// The smallest `f32` at least `e` (`e >= 0`).
+#[inline]
+pub(crate) fn round_up(e: f64) -> f32 {
+    let f = e as f32;
+    if (f as f64) < e {
+        f.next_up()
+    } else {
+        f
+    }
+}
+
+/// Encodes a non-negative error as the upper 16 bits of its `f32` pattern, rounded up
+/// (bfloat16, relative step `2^-7`); monotone, so nesting survives.
+#[inline]
+pub(crate) fn encode_bf16_up(e: f32) -> u16 {
+    let b = e.max(0.0).to_bits() as u64;
+    ((b + 0xFFFF) >> 16).min(0x7F80) as u16
+}
+
+/// Decodes [`encode_bf16_up`].
+#[inline(always)]
+pub(crate) fn decode_bf16(c: u16) -> f32 {
+    f32::from_bits((c as u32) << 16)
+}
+
+/// Where preprocessing writes errors.
+pub(crate) trait ErrorSink {
+    fn get(&self, i: usize) -> f32;
+    fn put(&mut self, i: usize, e: f32);
+}
+
+impl ErrorSink for [f32] {
+    #[inline]
+    fn get(&self, i: usize) -> f32 {
+        self.get(i).copied().unwrap_or(0.0)
+    }
+    #[inline]
+    fn put(&mut self, i: usize, e: f32) {
+        if let Some(s) = self.get_mut(i) {
+            *s = e;
+        }
+    }
+}
+
+impl ErrorSink for [u16] {
+    #[inline]
+    fn get(&self, i: usize) -> f32 {
+        self.get(i).map_or(0.0, |&c| decode_bf16(c))
+    }
+    #[inline]
+    fn put(&mut self, i: usize, e: f32) {
+        if let Some(s) = self.get_mut(i) {
+            *s = encode_bf16_up(e);
+        }
+    }
+}
+
+#[inline(always)]
+fn local(t: &impl Terrain, x: i64, y: i64) -> f64 {
+    t.local_z(x as u32, y as u32) as f64
+}
+
+/// L-infinity error of one hierarchy triangle against its own plane: 0 outside the domain,
+/// infinite when it crosses the domain's border (it must always be split).
+pub(crate) fn triangle_error(t: &impl Terrain, g: &RefineGrid, p: [(i64, i64); 3]) -> f64 {
+    match g.classify(p) {
+        Class::Outside => 0.0,
+        Class::Straddle => f64::INFINITY,
+        Class::Inside => {
+            let Some(plane) = Plane::new([
+                (p[0].0, p[0].1, local(t, p[0].0, p[0].1)),
+                (p[1].0, p[1].1, local(t, p[1].0, p[1].1)),
+                (p[2].0, p[2].1, local(t, p[2].0, p[2].1)),
+            ]) else {
+                return 0.0;
+            };
+            let mut e = 0.0f64;
+            for_each_span(p[0], p[1], p[2], |y, lo, hi| {
+                for x in lo..=hi {
+                    let d = (local(t, x, y) - plane.at(x, y)).abs();
+                    e = e.max(d);
+                }
+            });
+            e
+        }
+    }
+}
+
+fn position(t: &impl Terrain, x: i64, y: i64) -> [f64; 3] {
+    let s = t.scale();
+    [
+        x as f64 * s.dx as f64,
+        y as f64 * s.dy as f64,
+        local(t, x, y),
+    ]
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let (dx, dy, dz) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+    libm::sqrt(dx * dx + dy * dy + dz * dz)
+}
+
+/// Fills `errors` (and `radii` when given) bottom-up. Loops: `levels x width x height`
+/// vertices, each over the samples of its diamond (about `2 width height` per level).
+pub(crate) fn build<T: Terrain, E: ErrorSink + ?Sized>(
+    t: &T,
+    g: &RefineGrid,
+    errors: &mut E,
+    mut radii: Option<&mut [f32]>,
+    contain_corners: bool,
+) {
+    let w = g.width() as usize;
+    let (wi, hi) = (g.width() as i64, g.height() as i64);
+    let n = g.side() as i64;
+    let idx = |x: i64, y: i64| y as usize * w + x as usize;
+    let mut h = 1i64;
+    while h < n {
+        // Edge vertices of half-size h (children: centres of half-size h/2, done), then centres
+        // of half-size h (children: these edge vertices).
+        for pass in 0..3 {
+            let (x0, y0, sx, sy) = match pass {
+                0 => (h, 0, 2 * h, 2 * h), // horizontal edges
+                1 => (0, h, 2 * h, 2 * h), // vertical edges
+                _ => (h, h, 2 * h, 2 * h), // centres
+            };
+            let mut y = y0;
+            while y < hi {
+                let mut x = x0;
+                while x < wi {
+                    let (xu, yu) = (x as u32, y as u32);
+                    let mut e = 0.0f64;
+                    let diamond = g.diamond(xu, yu);
+                    for tri in diamond.iter().flatten() {
+                        e = e.max(triangle_error(t, g, *tri));
+                    }
+                    let mut ef = round_up(e);
+                    let kids = g.children(xu, yu);
+                    for &(cx, cy) in kids.iter().flatten() {
+                        if g.in_domain(cx, cy) {
+                            ef = ef.max(errors.get(idx(cx, cy)));
+                        }
+                    }
+                    errors.put(idx(x, y), ef);
+                    if let Some(r) = radii.as_deref_mut() {
+                        let p = position(t, x, y);
+                        let mut rad = 0.0f64;
+                        if contain_corners {
+                            for tri in diamond.iter().flatten() {
+                                for &(cx, cy) in tri {
+                                    if g.in_domain(cx, cy) {
+                                        rad = rad.max(dist(p, position(t, cx, cy)));
+                                    }
+                                }
+                            }
+                        }
+                        for &(cx, cy) in kids.iter().flatten() {
+                            if g.in_domain(cx, cy) {
+                                let rc = r.get(idx(cx, cy)).copied().unwrap_or(0.0) as f64;
+                                rad = rad.max(dist(p, position(t, cx, cy)) + rc);
+                            }
+                        }
+                        if let Some(slot) = r.get_mut(idx(x, y)) {
+                            *slot = round_up(rad * (1.0 + SPHERE_MARGIN) + f64::MIN_POSITIVE);
+                        }
+                    }
+                    x += sx;
+                }
+                y += sy;
+            }
+        }
+        h *= 2;
+    }
+    // The square's corners are always in the mesh.
+    for (cx, cy) in [(0, 0), (n, 0), (0, n), (n, n)] {
+        if g.in_domain(cx, cy) {
+            errors.put(idx(cx, cy), f32::INFINITY);
+            if let Some(r) = radii.as_deref_mut() {
+                if let Some(slot) = r.get_mut(idx(cx, cy)) {
+                    *slot = 0.0;
+                }
+            }
+        }
+    }
+}
+
+/// Checks that `terrain` fits `len` per-vertex entries and returns its grid.
+pub(crate) fn check<T: Terrain>(t: &T, len: usize) -> Result<RefineGrid, Error> {
+    let g = RefineGrid::new(t.width(), t.height())?;
+    if len < g.len() {
+        return Err(Error::BufferTooSmall {
+            needed: g.len(),
+            actual: len,
+        });
+    }
+    Ok(g)
+}
+
+/// Minimum and maximum local height over the grid.
+pub(crate) fn z_range<T: Terrain>(t: &T) -> (f32, f32) {
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for y in 0..t.height() {
+        for x in 0..t.width() {
+            let z = t.local_z(x, y);
+            lo = lo.min(z);
+            hi = hi.max(z);
+        }
+    }
+    (lo, hi)
+}
+
+/// Builds the [`Hierarchy`] value once the arrays are filled.
+pub(crate) fn finish<'a, T: Terrain>(
+    t: &T,
+    grid: RefineGrid,
+    errors: ErrorStore<'a>,
+    radii: Option<&'a [f32]>,
+) -> Hierarchy<'a> {
+    let (z_min, z_max) = z_range(t);
+    Hierarchy::assemble(grid, t.scale(), errors, radii, z_min, z_max)
+}

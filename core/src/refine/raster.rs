@@ -1,0 +1,142 @@
+//! Exact integer rasterisation of triangles with grid-point corners, and the one plane formula
+//! shared by preprocessing and the error scan (so that both see bit-identical mesh heights).
+
+/// A plane through three grid points, evaluated by one fixed formula in `f64`.
+///
+/// The corners are sorted by `(y, x)` first, so the same three points give the same plane (and
+/// the same rounding) whatever order a caller lists them in.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Plane {
+    x0: i64,
+    y0: i64,
+    z0: f64,
+    gx: f64,
+    gy: f64,
+}
+
+impl Plane {
+    /// `None` for a degenerate (collinear) triangle.
+    pub(crate) fn new(mut p: [(i64, i64, f64); 3]) -> Option<Plane> {
+        p.sort_unstable_by_key(|a| (a.1, a.0));
+        let [(x0, y0, z0), (x1, y1, z1), (x2, y2, z2)] = p;
+        let (ax, ay, az) = ((x1 - x0) as f64, (y1 - y0) as f64, z1 - z0);
+        let (bx, by, bz) = ((x2 - x0) as f64, (y2 - y0) as f64, z2 - z0);
+        let det = ax * by - bx * ay;
+        if det == 0.0 {
+            return None;
+        }
+        let gx = (az * by - bz * ay) / det;
+        let gy = (ax * bz - bx * az) / det;
+        Some(Plane { x0, y0, z0, gx, gy })
+    }
+
+    /// Height of the plane over grid point `(x, y)`.
+    #[inline(always)]
+    pub(crate) fn at(&self, x: i64, y: i64) -> f64 {
+        self.z0 + self.gx * (x - self.x0) as f64 + self.gy * (y - self.y0) as f64
+    }
+}
+
+/// Twice the signed area of `(a, b, c)`: positive when counter-clockwise (y up).
+#[inline(always)]
+pub(crate) fn orient(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> i64 {
+    (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0)
+}
+
+/// Calls `f(y, x_lo, x_hi)` for every row of the closed triangle `(a, b, c)` that holds grid
+/// points, with the inclusive column span of that row. Loops over `max y - min y + 1` rows.
+pub(crate) fn for_each_span(
+    a: (i64, i64),
+    b: (i64, i64),
+    c: (i64, i64),
+    mut f: impl FnMut(i64, i64, i64),
+) {
+    let o = orient(a, b, c);
+    if o == 0 {
+        return;
+    }
+    let p = if o > 0 { [a, b, c] } else { [a, c, b] };
+    let y_lo = a.1.min(b.1).min(c.1);
+    let y_hi = a.1.max(b.1).max(c.1);
+    let x_lo0 = a.0.min(b.0).min(c.0);
+    let x_hi0 = a.0.max(b.0).max(c.0);
+    for y in y_lo..=y_hi {
+        let (mut lo, mut hi) = (x_lo0, x_hi0);
+        let mut empty = false;
+        for k in 0..3 {
+            let (px, py) = p[k];
+            let (qx, qy) = p[(k + 1) % 3];
+            let (ex, ey) = (qx - px, qy - py);
+            // Inside (left of or on the edge): ex (y - py) - ey (x - px) >= 0.
+            let rhs = ex * (y - py) + ey * px; // ey * x <= rhs
+            if ey > 0 {
+                hi = hi.min(rhs.div_euclid(ey));
+            } else if ey < 0 {
+                // x >= rhs / ey (dividing by a negative flips the inequality): ceil.
+                let (n, d) = (-rhs, -ey);
+                lo = lo.max(-((-n).div_euclid(d)));
+            } else if ex * (y - py) < 0 {
+                empty = true;
+            }
+        }
+        if !empty && lo <= hi {
+            f(y, lo, hi);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn brute(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> std::vec::Vec<(i64, i64)> {
+        let mut v = std::vec::Vec::new();
+        let s = orient(a, b, c).signum();
+        for y in -2..12 {
+            for x in -2..12 {
+                let q = (x, y);
+                if orient(a, b, q) * s >= 0 && orient(b, c, q) * s >= 0 && orient(c, a, q) * s >= 0
+                {
+                    v.push(q);
+                }
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn spans_match_brute_force() {
+        let tris = [
+            ((0, 0), (4, 0), (4, 4)),
+            ((0, 0), (4, 4), (0, 4)),
+            ((0, 0), (8, 0), (4, 4)),
+            ((4, 4), (2, 2), (2, 6)),
+            ((1, 0), (9, 3), (3, 7)),
+            ((3, 7), (9, 3), (1, 0)),
+            ((0, 0), (1, 1), (0, 1)),
+        ];
+        for (a, b, c) in tris {
+            let mut got = std::vec::Vec::new();
+            for_each_span(a, b, c, |y, lo, hi| {
+                for x in lo..=hi {
+                    got.push((x, y));
+                }
+            });
+            got.sort_by_key(|p| (p.1, p.0));
+            let mut want = brute(a, b, c);
+            want.sort_by_key(|p| (p.1, p.0));
+            assert_eq!(got, want, "{a:?} {b:?} {c:?}");
+        }
+    }
+
+    #[test]
+    fn plane_is_order_independent() {
+        let p = [(0, 0, 1.1), (4, 0, 2.7), (4, 4, -3.3)];
+        let q = [p[2], p[0], p[1]];
+        let (a, b) = (Plane::new(p).unwrap(), Plane::new(q).unwrap());
+        for (x, y) in [(1, 0), (3, 2), (4, 3)] {
+            assert_eq!(a.at(x, y).to_bits(), b.at(x, y).to_bits());
+        }
+        assert!(Plane::new([(0, 0, 0.0), (1, 1, 0.0), (2, 2, 0.0)]).is_none());
+    }
+}

@@ -1,0 +1,816 @@
+//! Stateless SOAR refinement (Lindstrom & Pascucci 2001; seed 004 chapters 4.5 and 5.2): the
+//! per-vertex decision (nested error or projected error, frustum culling with an active-plane
+//! mask, lazy culling) and the indexed-triangle-list output with vertices numbered by their rank
+//! in a bitmap of kept vertices.
+
+use super::grid::{Class, RefineGrid};
+use super::Hierarchy;
+use crate::{Camera, Error, Terrain};
+use glam::Vec4;
+
+/// What a vertex must satisfy to be refined.
+///
+/// ```
+/// use relief_core::refine::Criterion;
+/// let c = Criterion::MaxError(0.5);
+/// assert!(matches!(c, Criterion::MaxError(e) if e == 0.5));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Criterion {
+    /// View-independent: every vertex with nested error `> E` (world z units) is in the mesh,
+    /// so the mesh's vertical error at every grid sample is at most `E`.
+    MaxError(f32),
+    /// View-dependent: SOAR's projected error against a pixel threshold, with culling.
+    View(View),
+}
+
+/// View-dependent refinement parameters: camera, pixel threshold, culling.
+///
+/// A vertex with error `e` whose bounding volume is at distance `d` from the eye (nearest point)
+/// is refined when `e * kappa > tau * d`, with `kappa = (image_height / 2) / tan(fov / 2)`; the
+/// test is nested (errors and volumes are), so the mesh has no cracks, and every in-view sample's
+/// vertical error projects to at most `tau` pixels.
+///
+/// Defaults: near plane 0.1 world units, no far plane, culling on, lazy culling from the finest
+/// level up 4 levels ([`View::with_lazy_levels`]), no geomorphing.
+///
+/// ```
+/// use relief_core::{refine::View, Camera};
+/// use glam::Vec3;
+/// let cam = Camera::new(Vec3::new(0.0, 0.0, 10.0), Vec3::new(10.0, 10.0, 0.0), 60.0, 640, 480).unwrap();
+/// let v = View::new(&cam, 1.0).unwrap();
+/// assert_eq!(v.pixel_error(), 1.0);
+/// assert!(View::new(&cam, f32::NAN).is_err());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct View {
+    camera: Camera,
+    tau: f32,
+    near: f32,
+    far: Option<f32>,
+    culling: bool,
+    lazy_levels: u32,
+    morph_range: Option<f32>,
+}
+
+impl View {
+    /// Refinement for `camera` with a threshold of `pixel_error` pixels (finite, `>= 0`).
+    ///
+    /// ```
+    /// # use relief_core::{refine::View, Camera, Error}; use glam::Vec3;
+    /// # let cam = Camera::new(Vec3::ZERO, Vec3::X, 60.0, 4, 4).unwrap();
+    /// assert_eq!(
+    ///     View::new(&cam, -1.0).unwrap_err(),
+    ///     Error::InvalidParameter { name: "pixel_error", value: -1.0 }
+    /// );
+    /// ```
+    pub fn new(camera: &Camera, pixel_error: f32) -> Result<View, Error> {
+        if !(pixel_error.is_finite() && pixel_error >= 0.0) {
+            return Err(Error::InvalidParameter {
+                name: "pixel_error",
+                value: pixel_error,
+            });
+        }
+        Ok(View {
+            camera: *camera,
+            tau: pixel_error,
+            near: 0.1,
+            far: None,
+            culling: true,
+            lazy_levels: 4,
+            morph_range: None,
+        })
+    }
+
+    /// The pixel threshold.
+    ///
+    /// ```
+    /// # use relief_core::{refine::View, Camera}; use glam::Vec3;
+    /// # let cam = Camera::new(Vec3::ZERO, Vec3::X, 60.0, 4, 4).unwrap();
+    /// assert_eq!(View::new(&cam, 2.0).unwrap().pixel_error(), 2.0);
+    /// ```
+    #[must_use]
+    pub fn pixel_error(&self) -> f32 {
+        self.tau
+    }
+
+    /// Near plane distance (default 0.1) and optional far plane (default none) for culling.
+    ///
+    /// ```
+    /// # use relief_core::{refine::View, Camera}; use glam::Vec3;
+    /// # let cam = Camera::new(Vec3::ZERO, Vec3::X, 60.0, 4, 4).unwrap();
+    /// let v = View::new(&cam, 1.0).unwrap().with_near_far(1.0, Some(1000.0));
+    /// # let _ = v;
+    /// ```
+    #[must_use]
+    pub fn with_near_far(mut self, near: f32, far: Option<f32>) -> Self {
+        self.near = near;
+        self.far = far;
+        self
+    }
+
+    /// Turns frustum culling on (default) or off.
+    ///
+    /// ```
+    /// # use relief_core::{refine::View, Camera}; use glam::Vec3;
+    /// # let cam = Camera::new(Vec3::ZERO, Vec3::X, 60.0, 4, 4).unwrap();
+    /// let v = View::new(&cam, 1.0).unwrap().with_culling(false);
+    /// # let _ = v;
+    /// ```
+    #[must_use]
+    pub fn with_culling(mut self, on: bool) -> Self {
+        self.culling = on;
+        self
+    }
+
+    /// Lazy culling (seed 004, chapter 5.2): vertices in the finest `levels` levels are not
+    /// tested against the frustum but accepted as if inside (default 4; 0 tests every level).
+    /// This removes the culling pop of spheres that do not contain their diamond, and leaves
+    /// T-junctions only outside the view.
+    ///
+    /// ```
+    /// # use relief_core::{refine::View, Camera}; use glam::Vec3;
+    /// # let cam = Camera::new(Vec3::ZERO, Vec3::X, 60.0, 4, 4).unwrap();
+    /// let strict = View::new(&cam, 1.0).unwrap().with_lazy_levels(0);
+    /// # let _ = strict;
+    /// ```
+    #[must_use]
+    pub fn with_lazy_levels(mut self, levels: u32) -> Self {
+        self.lazy_levels = levels;
+        self
+    }
+
+    /// Geomorphing (SOAR): a kept vertex's morph factor grows from 0 where its projected error
+    /// equals the threshold to 1 where it is `range` times the threshold (`range > 1`); see
+    /// [`Refiner::morph`]. Default: none.
+    ///
+    /// ```
+    /// # use relief_core::{refine::View, Camera}; use glam::Vec3;
+    /// # let cam = Camera::new(Vec3::ZERO, Vec3::X, 60.0, 4, 4).unwrap();
+    /// let v = View::new(&cam, 1.0).unwrap().with_geomorph(Some(2.0));
+    /// # let _ = v;
+    /// ```
+    #[must_use]
+    pub fn with_geomorph(mut self, range: Option<f32>) -> Self {
+        self.morph_range = range;
+        self
+    }
+}
+
+/// Sizes of one frame's mesh.
+///
+/// ```
+/// let c = relief_core::refine::FrameCounts { vertices: 4, triangles: 2 };
+/// assert_eq!(c.triangles, 2);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FrameCounts {
+    /// Vertices referenced by the triangles.
+    pub vertices: usize,
+    /// Triangles.
+    pub triangles: usize,
+}
+
+/// Sizes of one frame's triangle strip.
+///
+/// ```
+/// let c = relief_core::refine::StripCounts { vertices: 4, indices: 4, triangles: 2 };
+/// assert_eq!(c.indices_per_triangle(), 2.0);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct StripCounts {
+    /// Vertices in the vertex buffer.
+    pub vertices: usize,
+    /// Indices in the strip (each consecutive three form a triangle; degenerate ones included).
+    pub indices: usize,
+    /// Non-degenerate triangles the strip draws.
+    pub triangles: usize,
+}
+
+impl StripCounts {
+    /// Strip indices per drawn triangle (seed 004 measured 1.56 for SOAR's strip and 1.32 for
+    /// the in/out-edge strip).
+    ///
+    /// ```
+    /// let c = relief_core::refine::StripCounts { vertices: 9, indices: 10, triangles: 8 };
+    /// assert_eq!(c.indices_per_triangle(), 1.25);
+    /// ```
+    #[must_use]
+    pub fn indices_per_triangle(&self) -> f64 {
+        if self.triangles == 0 {
+            0.0
+        } else {
+            self.indices as f64 / self.triangles as f64
+        }
+    }
+}
+
+/// A vertex with its geomorph data, `bytemuck::Pod` for direct upload.
+///
+/// The rendered height is `base_z + morph * (position[2] - base_z)`.
+///
+/// ```
+/// let v = relief_core::refine::MorphVertex { position: [0.0, 0.0, 2.0], base_z: 1.0, morph: 0.5 };
+/// let bytes: &[u8] = bytemuck::bytes_of(&v);
+/// assert_eq!(bytes.len(), 20);
+/// ```
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct MorphVertex {
+    /// World position of the grid sample.
+    pub position: [f32; 3],
+    /// World height of the vertex's parent edge midpoint (where the morph starts).
+    pub base_z: f32,
+    /// Morph factor in `[0, 1]`.
+    pub morph: f32,
+}
+
+/// Per-frame view data in local coordinates (`z` without `z_offset`), `f64`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct ViewData {
+    eye: [f64; 3],
+    kappa: f64,
+    tau: f64,
+    planes: [[f64; 4]; 6],
+    pub(crate) mask: u8,
+    lazy_from: u32,
+    z_lo: f64,
+    z_hi: f64,
+    morph_range: f64,
+}
+
+/// What a vertex's test says.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Decision {
+    /// Refine, with the planes still to test below.
+    Split(u8),
+    /// Keep the triangle unsplit.
+    Keep,
+    /// The volume is outside the frustum: drop the triangle.
+    Cull,
+}
+
+/// A frame's refiner: the preprocessed [`Hierarchy`], the terrain it was built from, and the
+/// [`Criterion`]. Each call refines from scratch (stateless) into caller buffers.
+///
+/// Every output call takes `scratch` of [`scratch_len`](super::scratch_len) `u64`s. Vertices
+/// are numbered in row-major order of the grid samples they sit on (by rank in the bitmap of
+/// kept vertices); positions are world units.
+///
+/// ```
+/// use relief_core::refine::{preprocess, scratch_len, Criterion, Refiner};
+/// use relief_core::{Error, Heightfield};
+/// let hf = Heightfield::new(&[0.0f32; 9], 3, 3).unwrap();
+/// let (mut e, mut r) = ([0.0; 9], [0.0; 9]);
+/// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+/// let rf = Refiner::new(&h, &hf, Criterion::MaxError(0.0)).unwrap();
+/// let mut s = vec![0; scratch_len(3, 3)];
+/// assert_eq!(rf.count(&mut s).unwrap().triangles, 2); // flat: two triangles
+/// let (mut v, mut t) = ([[0.0f32; 3]; 4], [[0u32; 3]; 1]);
+/// assert_eq!(
+///     rf.triangles(&mut s, &mut v, &mut t).unwrap_err(),
+///     Error::BufferTooSmall { needed: 2, actual: 1 }
+/// );
+/// ```
+#[derive(Debug, Clone, Copy)]
+pub struct Refiner<'h, 't, T: Terrain> {
+    pub(crate) h: &'h Hierarchy<'h>,
+    pub(crate) t: &'t T,
+    pub(crate) g: RefineGrid,
+    pub(crate) max_error: f32,
+    pub(crate) view: Option<ViewData>,
+}
+
+/// Receives the triangles of a traversal, counter-clockwise seen from +z.
+pub(crate) trait Sink {
+    fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64));
+}
+
+impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
+    /// A refiner for `terrain`, which must be the terrain `hierarchy` was built from (same size;
+    /// [`Error::LengthMismatch`] otherwise). Checks the criterion: `E` finite and `>= 0`; the
+    /// view's near/far planes valid.
+    ///
+    /// ```
+    /// use relief_core::refine::{preprocess, Criterion, Refiner};
+    /// use relief_core::{Error, Heightfield};
+    /// let hf = Heightfield::new(&[0.0f32; 9], 3, 3).unwrap();
+    /// let (mut e, mut r) = ([0.0; 9], [0.0; 9]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// assert!(Refiner::new(&h, &hf, Criterion::MaxError(f32::NAN)).is_err());
+    /// let other = Heightfield::new(&[0.0f32; 4], 2, 2).unwrap();
+    /// assert!(matches!(
+    ///     Refiner::new(&h, &other, Criterion::MaxError(1.0)),
+    ///     Err(Error::LengthMismatch { .. })
+    /// ));
+    /// ```
+    pub fn new(
+        hierarchy: &'h Hierarchy<'h>,
+        terrain: &'t T,
+        criterion: Criterion,
+    ) -> Result<Self, Error> {
+        let g = hierarchy.grid();
+        if terrain.width() != g.width() || terrain.height() != g.height() {
+            return Err(Error::LengthMismatch {
+                expected: g.len(),
+                actual: terrain.width() as usize * terrain.height() as usize,
+            });
+        }
+        let (max_error, view) = match criterion {
+            Criterion::MaxError(e) => {
+                if !(e.is_finite() && e >= 0.0) {
+                    return Err(Error::InvalidParameter {
+                        name: "max_error",
+                        value: e,
+                    });
+                }
+                (e, None)
+            }
+            Criterion::View(v) => (0.0, Some(view_data(hierarchy, &v, g)?)),
+        };
+        Ok(Refiner {
+            h: hierarchy,
+            t: terrain,
+            g,
+            max_error,
+            view,
+        })
+    }
+
+    /// How much this frame needs: vertices and triangles of the triangle list (one traversal for
+    /// view-dependent refinement, one pass over the errors for view-independent).
+    ///
+    /// ```
+    /// # use relief_core::refine::{preprocess, scratch_len, Criterion, Refiner};
+    /// # use relief_core::Heightfield;
+    /// let s: Vec<f32> = (0..25).map(|i| (i * 7 % 5) as f32).collect();
+    /// let hf = Heightfield::new(&s, 5, 5).unwrap();
+    /// let (mut e, mut r) = (vec![0.0; 25], vec![0.0; 25]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let coarse = Refiner::new(&h, &hf, Criterion::MaxError(100.0)).unwrap();
+    /// let c = coarse.count(&mut vec![0; scratch_len(5, 5)]).unwrap();
+    /// assert_eq!((c.vertices, c.triangles), (4, 2));
+    /// let fine = Refiner::new(&h, &hf, Criterion::MaxError(0.0)).unwrap();
+    /// let c = fine.count(&mut vec![0; scratch_len(5, 5)]).unwrap();
+    /// assert!(c.vertices <= 25 && c.triangles > 2);
+    /// ```
+    pub fn count(&self, scratch: &mut [u64]) -> Result<FrameCounts, Error> {
+        self.select(scratch)
+    }
+
+    /// The indexed triangle list: fills `vertices` (world positions) and `triangles` (indices
+    /// into `vertices`, counter-clockwise seen from +z) and returns the counts.
+    /// [`Error::BufferTooSmall`] (nothing written) if either buffer is too small.
+    ///
+    /// ```
+    /// # use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner};
+    /// # use relief_core::Heightfield;
+    /// let hf = Heightfield::new(&[0.0f32, 1.0, 2.0, 3.0], 2, 2).unwrap();
+    /// let mut e = [0u16; 4];
+    /// let h = preprocess_compact(&hf, &mut e).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(0.0)).unwrap();
+    /// let (mut v, mut t) = ([[0.0f32; 3]; 4], [[0u32; 3]; 2]);
+    /// rf.triangles(&mut vec![0; scratch_len(2, 2)], &mut v, &mut t).unwrap();
+    /// assert_eq!(t, [[3, 0, 1], [0, 3, 2]]);
+    /// assert_eq!(v[3], [1.0, 1.0, 3.0]);
+    /// ```
+    pub fn triangles(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [[f32; 3]],
+        triangles: &mut [[u32; 3]],
+    ) -> Result<FrameCounts, Error> {
+        let c = self.select(scratch)?;
+        need(c.vertices, vertices.len())?;
+        need(c.triangles, triangles.len())?;
+        let (bits, prefix) = split_scratch(scratch, self.g.len());
+        self.write_vertices(bits, vertices);
+        let mut sink = ListSink {
+            bits,
+            prefix,
+            w: self.g.width() as i64,
+            out: triangles,
+            n: 0,
+        };
+        self.walk_all(&mut sink, false);
+        Ok(c)
+    }
+
+    /// Geomorph data for the vertices of the last selection, in vertex order: for each kept
+    /// vertex its world position, the world height of the midpoint of its parent edge (where the
+    /// morph starts) and its morph factor (1 without [`View::with_geomorph`], for
+    /// view-independent refinement, for the square's corners and for vertices the domain
+    /// border forces). Runs the selection again; `out` at least the vertex count.
+    ///
+    /// ```
+    /// use relief_core::refine::{preprocess, scratch_len, Criterion, MorphVertex, Refiner, View};
+    /// use relief_core::{Camera, Heightfield};
+    /// use glam::Vec3;
+    /// let s: Vec<f32> = (0..81).map(|i| ((i * 37) % 11) as f32).collect();
+    /// let hf = Heightfield::new(&s, 9, 9).unwrap();
+    /// let (mut e, mut r) = (vec![0.0; 81], vec![0.0; 81]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let cam = Camera::new(Vec3::new(-5.0, -5.0, 20.0), Vec3::new(4.0, 4.0, 0.0), 60.0, 200, 200).unwrap();
+    /// let view = View::new(&cam, 4.0).unwrap().with_geomorph(Some(2.0));
+    /// let rf = Refiner::new(&h, &hf, Criterion::View(view)).unwrap();
+    /// let mut out = vec![MorphVertex::default(); 81];
+    /// let n = rf.morph(&mut vec![0; scratch_len(9, 9)], &mut out).unwrap();
+    /// assert!(out[..n].iter().all(|v| (0.0..=1.0).contains(&v.morph)));
+    /// ```
+    pub fn morph(&self, scratch: &mut [u64], out: &mut [MorphVertex]) -> Result<usize, Error> {
+        let c = self.select(scratch)?;
+        need(c.vertices, out.len())?;
+        let (bits, _) = split_scratch(scratch, self.g.len());
+        let w = self.g.width() as usize;
+        let s = self.h.scale();
+        let mut k = 0usize;
+        for (wi, &word) in bits.iter().enumerate() {
+            let mut b = word;
+            while b != 0 {
+                let i = wi * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                let (x, y) = ((i % w) as u32, (i / w) as u32);
+                let z = self.t.local_z(x, y);
+                let (base, f) = self.morph_of(x, y, z);
+                if let Some(o) = out.get_mut(k) {
+                    *o = MorphVertex {
+                        position: [x as f32 * s.dx, y as f32 * s.dy, z + s.z_offset],
+                        base_z: base + s.z_offset,
+                        morph: f,
+                    };
+                }
+                k += 1;
+            }
+        }
+        Ok(k)
+    }
+
+    fn morph_of(&self, x: u32, y: u32, z: f32) -> (f32, f32) {
+        let Some((kind, hs)) = self.g.kind(x, y) else {
+            return (z, 1.0);
+        };
+        let (xi, yi, hh) = (x as i64, y as i64, hs as i64);
+        let ends = match kind {
+            super::grid::Kind::Edge { horizontal: true } => [(xi - hh, yi), (xi + hh, yi)],
+            super::grid::Kind::Edge { horizontal: false } => [(xi, yi - hh), (xi, yi + hh)],
+            super::grid::Kind::Centre => {
+                if super::grid::main_diagonal(xi - hh, yi - hh, 2 * hh) {
+                    [(xi - hh, yi - hh), (xi + hh, yi + hh)]
+                } else {
+                    [(xi + hh, yi - hh), (xi - hh, yi + hh)]
+                }
+            }
+        };
+        if !ends.iter().all(|&(a, b)| self.g.in_domain(a, b)) {
+            return (z, 1.0);
+        }
+        let base = 0.5
+            * (self.t.local_z(ends[0].0 as u32, ends[0].1 as u32)
+                + self.t.local_z(ends[1].0 as u32, ends[1].1 as u32));
+        let Some(v) = self.view else {
+            return (base, 1.0);
+        };
+        let i = y as usize * self.g.width() as usize + x as usize;
+        let e = self.h.err_at(i) as f64;
+        if v.morph_range <= 1.0 || e.is_infinite() {
+            return (base, 1.0);
+        }
+        let level = self.g.level(x, y).unwrap_or(0);
+        let d = self.distance(&v, [xi, yi], z as f64, i, level);
+        // rho / tau, the projected error in units of the threshold.
+        let ratio = if d > 0.0 && v.tau > 0.0 {
+            e * v.kappa / (v.tau * d)
+        } else {
+            f64::INFINITY
+        };
+        let f = ((ratio - 1.0) / (v.morph_range - 1.0)).clamp(0.0, 1.0);
+        (base, f as f32)
+    }
+
+    /// Marks the kept vertices in the bitmap, fills the rank prefix, returns the counts.
+    pub(crate) fn select(&self, scratch: &mut [u64]) -> Result<FrameCounts, Error> {
+        let n = self.g.len();
+        let words = n.div_ceil(64);
+        need(2 * words, scratch.len())?;
+        let (bits, prefix) = split_scratch(scratch, n);
+        let triangles;
+        if self.view.is_none() {
+            // The kept set is known: every in-domain vertex with error > E (corners and forced
+            // vertices are +inf). A triangulated rectangle has 2V - B - 2 triangles.
+            let e = self.max_error;
+            for (wi, word) in bits.iter_mut().enumerate() {
+                let mut b = 0u64;
+                let base = wi * 64;
+                let top = (n - base).min(64);
+                for k in 0..top {
+                    b |= ((self.h.err_at(base + k) > e) as u64) << k;
+                }
+                *word = b;
+            }
+            let v = count_bits(bits);
+            let border = self.border_count(bits);
+            triangles = (2 * v).saturating_sub(border + 2);
+        } else {
+            bits.fill(0);
+            let mut sink = MarkSink {
+                bits,
+                w: self.g.width() as i64,
+                n: 0,
+            };
+            self.walk_all(&mut sink, false);
+            triangles = sink.n;
+        }
+        let mut acc = 0u64;
+        for (p, &b) in prefix.iter_mut().zip(bits.iter()) {
+            *p = acc;
+            acc += b.count_ones() as u64;
+        }
+        Ok(FrameCounts {
+            vertices: acc as usize,
+            triangles,
+        })
+    }
+
+    fn border_count(&self, bits: &[u64]) -> usize {
+        let (w, h) = (self.g.width() as usize, self.g.height() as usize);
+        let bit = |i: usize| bits.get(i / 64).is_some_and(|b| (b >> (i % 64)) & 1 == 1);
+        let mut c = 0;
+        for x in 0..w {
+            c += bit(x) as usize + bit((h - 1) * w + x) as usize;
+        }
+        for y in 1..h - 1 {
+            c += bit(y * w) as usize + bit(y * w + w - 1) as usize;
+        }
+        c
+    }
+
+    pub(crate) fn write_vertices(&self, bits: &[u64], vertices: &mut [[f32; 3]]) {
+        let w = self.g.width() as usize;
+        let s = self.h.scale();
+        let mut k = 0usize;
+        for (wi, &word) in bits.iter().enumerate() {
+            let mut b = word;
+            while b != 0 {
+                let i = wi * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                let (x, y) = ((i % w) as u32, (i / w) as u32);
+                if let Some(v) = vertices.get_mut(k) {
+                    *v = [
+                        x as f32 * s.dx,
+                        y as f32 * s.dy,
+                        self.t.local_z(x, y) + s.z_offset,
+                    ];
+                }
+                k += 1;
+            }
+        }
+    }
+
+    /// Traverses both root triangles.
+    pub(crate) fn walk_all<S: Sink>(&self, sink: &mut S, cull_keeps: bool) {
+        let n = self.g.side() as i64;
+        let mask = self.view.map_or(0, |v| v.mask);
+        self.walk(sink, (n, n), (0, 0), (n, 0), mask, 0, cull_keeps);
+        self.walk(sink, (0, 0), (n, n), (0, n), mask, 0, cull_keeps);
+    }
+
+    /// Triangle `(l, r, a)`, counter-clockwise, hypotenuse `l-r`, split vertex at `level`.
+    /// Recursion depth at most `levels() <= 60`.
+    #[allow(clippy::too_many_arguments)]
+    fn walk<S: Sink>(
+        &self,
+        sink: &mut S,
+        l: (i64, i64),
+        r: (i64, i64),
+        a: (i64, i64),
+        planes: u8,
+        level: u32,
+        cull_keeps: bool,
+    ) {
+        let class = self.g.classify([l, r, a]);
+        if class == Class::Outside {
+            return;
+        }
+        if level >= self.g.levels() {
+            sink.tri(l, r, a);
+            return;
+        }
+        let m = ((l.0 + r.0) / 2, (l.1 + r.1) / 2);
+        let d = if class == Class::Straddle {
+            Decision::Split(planes)
+        } else {
+            self.decide(m, planes, level)
+        };
+        match d {
+            Decision::Split(p) => {
+                self.walk(sink, a, l, m, p, level + 1, cull_keeps);
+                self.walk(sink, r, a, m, p, level + 1, cull_keeps);
+            }
+            Decision::Keep => sink.tri(l, r, a),
+            Decision::Cull => {
+                if cull_keeps {
+                    sink.tri(l, r, a);
+                }
+            }
+        }
+    }
+
+    /// The per-vertex decision for in-domain vertex `m` at `level`.
+    #[inline(always)]
+    pub(crate) fn decide(&self, m: (i64, i64), planes: u8, level: u32) -> Decision {
+        let i = m.1 as usize * self.g.width() as usize + m.0 as usize;
+        let e = self.h.err_at(i);
+        if e == f32::INFINITY {
+            return Decision::Split(planes);
+        }
+        let Some(v) = self.view else {
+            return if e > self.max_error {
+                Decision::Split(planes)
+            } else {
+                Decision::Keep
+            };
+        };
+        let z = self.t.local_z(m.0 as u32, m.1 as u32) as f64;
+        let mut planes = planes;
+        if planes != 0 && level < v.lazy_from {
+            match self.cull(&v, m, z, i, level, planes) {
+                Some(p) => planes = p,
+                None => return Decision::Cull,
+            }
+        }
+        let d = self.distance(&v, [m.0, m.1], z, i, level);
+        if e as f64 * v.kappa > v.tau * d {
+            Decision::Split(planes)
+        } else {
+            Decision::Keep
+        }
+    }
+
+    /// Distance from the eye to the nearest point of the vertex's bounding volume (0 inside).
+    #[inline(always)]
+    fn distance(&self, v: &ViewData, m: [i64; 2], z: f64, i: usize, level: u32) -> f64 {
+        let s = self.h.scale();
+        let (px, py) = (m[0] as f64 * s.dx as f64, m[1] as f64 * s.dy as f64);
+        let r = self.h.radius_at(i, level) as f64;
+        let (dx, dy) = (v.eye[0] - px, v.eye[1] - py);
+        if self.h.spheres() {
+            let dz = v.eye[2] - z;
+            (libm::sqrt(dx * dx + dy * dy + dz * dz) - r).max(0.0)
+        } else {
+            let dh = (libm::sqrt(dx * dx + dy * dy) - r).max(0.0);
+            let dz = (v.z_lo - v.eye[2]).max(v.eye[2] - v.z_hi).max(0.0);
+            libm::sqrt(dh * dh + dz * dz)
+        }
+    }
+
+    /// Tests the volume against the active planes: `None` if outside one, else the planes the
+    /// volume still crosses.
+    #[inline(always)]
+    fn cull(
+        &self,
+        v: &ViewData,
+        m: (i64, i64),
+        z: f64,
+        i: usize,
+        level: u32,
+        planes: u8,
+    ) -> Option<u8> {
+        let s = self.h.scale();
+        let (px, py) = (m.0 as f64 * s.dx as f64, m.1 as f64 * s.dy as f64);
+        let r = self.h.radius_at(i, level) as f64;
+        let mut out = planes;
+        for (k, p) in v.planes.iter().enumerate() {
+            if planes & (1 << k) == 0 {
+                continue;
+            }
+            let (lo, hi) = if self.h.spheres() {
+                let c = p[0] * px + p[1] * py + p[2] * z + p[3];
+                (c - r, c + r)
+            } else {
+                let hyp = libm::sqrt(p[0] * p[0] + p[1] * p[1]);
+                let c = p[0] * px + p[1] * py + p[3];
+                let (za, zb) = (p[2] * v.z_lo, p[2] * v.z_hi);
+                (c - r * hyp + za.min(zb), c + r * hyp + za.max(zb))
+            };
+            if hi < 0.0 {
+                return None;
+            }
+            if lo > 0.0 {
+                out &= !(1 << k);
+            }
+        }
+        Some(out)
+    }
+}
+
+fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Error> {
+    let s = h.scale();
+    let off = s.z_offset as f64;
+    let far_given = v.far.is_some();
+    let far = v.far.unwrap_or(v.near * 1e6);
+    let planes4: [Vec4; 6] = v.camera.frustum_planes(v.near, far)?;
+    let mut planes = [[0.0f64; 4]; 6];
+    for (o, p) in planes.iter_mut().zip(planes4.iter()) {
+        // n . (x, y, z_local + off) + d = n . (x, y, z_local) + (d + n.z off)
+        *o = [
+            p.x as f64,
+            p.y as f64,
+            p.z as f64,
+            p.w as f64 + p.z as f64 * off,
+        ];
+    }
+    if let Some(r) = v.morph_range {
+        if !(r.is_finite() && r > 1.0) {
+            return Err(Error::InvalidParameter {
+                name: "geomorph_range",
+                value: r,
+            });
+        }
+    }
+    let mask = if !v.culling {
+        0
+    } else if far_given {
+        0b11_1111
+    } else {
+        0b01_1111
+    };
+    let (z_lo, z_hi) = h.z_range();
+    let e = v.camera.eye;
+    Ok(ViewData {
+        eye: [e.x as f64, e.y as f64, e.z as f64 - off],
+        kappa: v.camera.kappa() as f64,
+        tau: v.tau as f64,
+        planes,
+        mask,
+        lazy_from: g.levels().saturating_sub(v.lazy_levels),
+        z_lo: z_lo as f64,
+        z_hi: z_hi as f64,
+        morph_range: v.morph_range.map_or(0.0, |r| r as f64),
+    })
+}
+
+pub(crate) fn need(needed: usize, actual: usize) -> Result<(), Error> {
+    if actual < needed {
+        Err(Error::BufferTooSmall { needed, actual })
+    } else {
+        Ok(())
+    }
+}
+
+pub(crate) fn split_scratch(scratch: &mut [u64], n: usize) -> (&mut [u64], &mut [u64]) {
+    let words = n.div_ceil(64);
+    let (bits, rest) = scratch.split_at_mut(words.min(scratch.len()));
+    let prefix = rest.get_mut(..words).unwrap_or(&mut []);
+    (bits, prefix)
+}
+
+fn count_bits(bits: &[u64]) -> usize {
+    bits.iter().map(|b| b.count_ones() as usize).sum()
+}
+
+/// Rank of vertex `i` in the bitmap: its index in the vertex buffer.
+#[inline(always)]
+pub(crate) fn rank(bits: &[u64], prefix: &[u64], i: usize) -> u32 {
+    let w = i >> 6;
+    let b = bits.get(w).copied().unwrap_or(0);
+    let p = prefix.get(w).copied().unwrap_or(0);
+    (p + (b & ((1u64 << (i & 63)) - 1)).count_ones() as u64) as u32
+}
+
+struct MarkSink<'a> {
+    bits: &'a mut [u64],
+    w: i64,
+    n: usize,
+}
+
+impl Sink for MarkSink<'_> {
+    #[inline(always)]
+    fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64)) {
+        for p in [a, b, c] {
+            let i = (p.1 * self.w + p.0) as usize;
+            if let Some(word) = self.bits.get_mut(i >> 6) {
+                *word |= 1u64 << (i & 63);
+            }
+        }
+        self.n += 1;
+    }
+}
+
+struct ListSink<'a, 'o> {
+    bits: &'a [u64],
+    prefix: &'a [u64],
+    w: i64,
+    out: &'o mut [[u32; 3]],
+    n: usize,
+}
+
+impl Sink for ListSink<'_, '_> {
+    #[inline(always)]
+    fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64)) {
+        let idx = |p: (i64, i64)| rank(self.bits, self.prefix, (p.1 * self.w + p.0) as usize);
+        if let Some(o) = self.out.get_mut(self.n) {
+            *o = [idx(a), idx(b), idx(c)];
+        }
+        self.n += 1;
+    }
+}

@@ -1,0 +1,318 @@
+//! Generalized triangle strips built during refinement: seed 004's in/out-edge strip (Balogh
+//! 2003, chapter 5.1: enter/leave edges, restricted left-only and right-only refinement that
+//! never visits vertices which cannot be active, corner turns by one repeated index).
+//!
+//! The strip covers the square `(2^k+1)^2` grid; the square's centre and the midpoints of its
+//! sides are always refined (the four base triangles of SOAR, chapter 4.5). A culled vertex is
+//! treated as inactive: its triangles are drawn coarse (outside the view), as in SOAR.
+
+use super::select::{need, rank, split_scratch, Decision, Refiner};
+use super::StripCounts;
+use crate::{Error, Terrain};
+
+type P = (i64, i64);
+
+#[inline(always)]
+fn mid(a: P, b: P) -> P {
+    ((a.0 + b.0) / 2, (a.1 + b.1) / 2)
+}
+
+/// Where strip indices go: marking the bitmap (first pass) or writing ranks (second pass).
+trait Out {
+    fn put(&mut self, v: P);
+}
+
+struct Mark<'a> {
+    bits: &'a mut [u64],
+    w: i64,
+}
+
+impl Out for Mark<'_> {
+    #[inline(always)]
+    fn put(&mut self, v: P) {
+        let i = (v.1 * self.w + v.0) as usize;
+        if let Some(word) = self.bits.get_mut(i >> 6) {
+            *word |= 1u64 << (i & 63);
+        }
+    }
+}
+
+struct Write<'a, 'o> {
+    bits: &'a [u64],
+    prefix: &'a [u64],
+    w: i64,
+    out: &'o mut [u32],
+    n: usize,
+}
+
+impl Out for Write<'_, '_> {
+    #[inline(always)]
+    fn put(&mut self, v: P) {
+        if let Some(o) = self.out.get_mut(self.n) {
+            *o = rank(self.bits, self.prefix, (v.1 * self.w + v.0) as usize);
+        }
+        self.n += 1;
+    }
+}
+
+const SIDE: bool = true;
+const BOTTOM: bool = false;
+
+struct Strip<'r, 'h, 't, T: Terrain, O: Out> {
+    r: &'r Refiner<'h, 't, T>,
+    out: O,
+    last: [P; 2],
+    len: usize,
+    tris: usize,
+    first: bool,
+    left_only: bool,
+    levels: u32,
+}
+
+impl<T: Terrain, O: Out> Strip<'_, '_, '_, T, O> {
+    #[inline(always)]
+    fn append(&mut self, v: P) {
+        if self.len >= 2 && v != self.last[0] && v != self.last[1] && self.last[0] != self.last[1] {
+            self.tris += 1;
+        }
+        self.out.put(v);
+        self.last = [self.last[1], v];
+        self.len += 1;
+    }
+
+    /// Repeats the second-to-last index: one degenerate triangle that swaps the strip's side.
+    #[inline(always)]
+    fn turn_corner(&mut self) {
+        let v = self.last[0];
+        self.append(v);
+    }
+
+    /// Whether vertex `v` at `level` is active; updates the plane mask.
+    #[inline(always)]
+    fn active(&self, v: P, level: u32, planes: &mut u8) -> bool {
+        if level >= self.levels {
+            return false;
+        }
+        match self.r.decide(v, *planes, level) {
+            Decision::Split(p) => {
+                *planes = p;
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Triangle with apex `v1`, active split vertex `v2` at `level`, entered at `p` (left end of
+    /// the hypotenuse); `inn`/`out`: whether the strip enters/leaves through a side (leg).
+    #[allow(clippy::too_many_arguments)]
+    fn refine(&mut self, v1: P, v2: P, p: P, level: u32, inn: bool, out: bool, planes: u8) {
+        let q = (2 * v2.0 - p.0, 2 * v2.1 - p.1);
+        let left = mid(p, v1);
+        let right = mid(v1, q);
+        let (mut pl, mut pr) = (planes, planes);
+        let is_left = self.active(left, level + 1, &mut pl);
+        let is_right = self.active(right, level + 1, &mut pr);
+        if is_left {
+            if is_right {
+                self.refine(v2, left, p, level + 1, !inn, SIDE, pl);
+                self.append(v1);
+                if self.left_only {
+                    self.append(v2);
+                    self.right_refine(v2, right, v1, level + 1, !out, pr);
+                } else {
+                    self.refine(v2, right, v1, level + 1, SIDE, !out, pr);
+                }
+                self.left_only = false;
+            } else {
+                self.left_only = true;
+                self.left_refine(v2, left, p, level + 1, !inn, pl);
+                self.append(v1);
+                if out == BOTTOM {
+                    self.append(v2);
+                }
+            }
+        } else {
+            self.start_or_turn(if inn == SIDE { v1 } else { v2 });
+            if is_right {
+                if inn == BOTTOM {
+                    self.append(v1);
+                }
+                self.append(v2);
+                self.right_refine(v2, right, v1, level + 1, !out, pr);
+            } else if inn == SIDE {
+                self.append(v2);
+                if out == SIDE {
+                    self.append(v1);
+                }
+            } else {
+                self.append(v1);
+            }
+        }
+    }
+
+    fn start_or_turn(&mut self, v: P) {
+        if self.first {
+            self.append(v);
+            self.first = false;
+        } else {
+            self.turn_corner();
+        }
+    }
+
+    /// Right-only refinement: a loop (tail recursion), at most `levels` iterations.
+    fn right_refine(&mut self, v1: P, v2: P, p: P, level: u32, out: bool, planes: u8) {
+        let (mut v1, mut v2, mut p, mut level, mut out, mut planes) =
+            (v1, v2, p, level, out, planes);
+        for _ in 0..=self.levels {
+            self.append(v2);
+            let q = (2 * v2.0 - p.0, 2 * v2.1 - p.1);
+            let right = mid(v1, q);
+            let is_right = self.active(right, level + 1, &mut planes);
+            p = v1;
+            v1 = v2;
+            v2 = right;
+            level += 1;
+            out = !out;
+            if !is_right {
+                break;
+            }
+        }
+        if out == BOTTOM {
+            self.turn_corner();
+        }
+    }
+
+    /// Left-only refinement: never tests right children.
+    fn left_refine(&mut self, v1: P, v2: P, p: P, level: u32, inn: bool, planes: u8) {
+        let left = mid(p, v1);
+        let mut pl = planes;
+        if self.active(left, level + 1, &mut pl) {
+            self.left_refine(v2, left, p, level + 1, !inn, pl);
+        } else {
+            self.start_or_turn(if inn == SIDE { v1 } else { v2 });
+            if inn == SIDE {
+                self.append(v2);
+            }
+        }
+        self.append(v1);
+    }
+
+    /// The whole square: four base triangles around the centre.
+    fn run(&mut self) {
+        let n = self.r.g.side() as i64;
+        if n < 2 {
+            // 2 x 2 grid: the two triangles of the single cell.
+            for v in [(1, 0), (1, 1), (0, 0), (0, 1)] {
+                self.append(v);
+            }
+            return;
+        }
+        let h = n / 2;
+        let c = (h, h);
+        let mask = self.r.view.map_or(0, |v| v.mask);
+        let mut pc = mask;
+        let _ = self.active(c, 0, &mut pc);
+        let bases = [
+            ((h, 0), (0, 0), (n, 0)),
+            ((n, h), (n, 0), (n, n)),
+            ((h, n), (n, n), (0, n)),
+            ((0, h), (0, n), (0, 0)),
+        ];
+        self.append((0, 0));
+        self.append((0, 0));
+        for (m, p, q) in bases {
+            let mut pm = pc;
+            let _ = self.active(m, 1, &mut pm);
+            self.left_only = false;
+            self.refine(c, m, p, 1, SIDE, SIDE, pm);
+            self.append(q);
+        }
+    }
+}
+
+impl<T: Terrain> Refiner<'_, '_, T> {
+    /// Seed 004's in/out-edge generalized triangle strip (Balogh 2003, chapter 5.1) for a
+    /// square `(2^k+1)^2` grid: fills `vertices` and `strip` (indices; every three consecutive
+    /// indices form a triangle, counter-clockwise seen from +z on even positions and clockwise on
+    /// odd ones, degenerate triangles included) and returns the counts.
+    ///
+    /// The square's centre and side midpoints are always refined; culled vertices are treated as
+    /// inactive (their triangles drawn coarse, as SOAR does). Other grid sizes:
+    /// [`Error::InvalidParameter`] (use [`Refiner::triangles`]). Buffers too small:
+    /// [`Error::BufferTooSmall`].
+    ///
+    /// ```
+    /// use relief_core::refine::{preprocess, scratch_len, strip_bound, Criterion, Refiner};
+    /// use relief_core::Heightfield;
+    /// let hf = Heightfield::new(&[0.0f32; 25], 5, 5).unwrap();
+    /// let (mut e, mut r) = ([0.0; 25], [0.0; 25]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(1.0)).unwrap();
+    /// let mut v = vec![[0.0f32; 3]; 25];
+    /// let mut s = vec![0u32; strip_bound(5, 5)];
+    /// let c = rf.inout_strip(&mut vec![0; scratch_len(5, 5)], &mut v, &mut s).unwrap();
+    /// assert_eq!((c.vertices, c.triangles), (9, 8)); // flat: the four base triangles, halved
+    /// ```
+    pub fn inout_strip(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [[f32; 3]],
+        strip: &mut [u32],
+    ) -> Result<StripCounts, Error> {
+        if !self.g.is_square() {
+            return Err(Error::InvalidParameter {
+                name: "strip grid (needs a (2^k+1) x (2^k+1) grid)",
+                value: self.g.width() as f32,
+            });
+        }
+        let n = self.g.len();
+        need(2 * n.div_ceil(64), scratch.len())?;
+        let (bits, prefix) = split_scratch(scratch, n);
+        bits.fill(0);
+        let w = self.g.width() as i64;
+        let mut pass1 = Strip {
+            r: self,
+            out: Mark { bits, w },
+            last: [(-1, -1); 2],
+            len: 0,
+            tris: 0,
+            first: true,
+            left_only: false,
+            levels: self.g.levels(),
+        };
+        pass1.run();
+        let (len, tris) = (pass1.len, pass1.tris);
+        let bits: &[u64] = pass1.out.bits;
+        let mut acc = 0u64;
+        for (p, &b) in prefix.iter_mut().zip(bits.iter()) {
+            *p = acc;
+            acc += b.count_ones() as u64;
+        }
+        let counts = StripCounts {
+            vertices: acc as usize,
+            indices: len,
+            triangles: tris,
+        };
+        need(counts.vertices, vertices.len())?;
+        need(counts.indices, strip.len())?;
+        self.write_vertices(bits, vertices);
+        let mut pass2 = Strip {
+            r: self,
+            out: Write {
+                bits,
+                prefix,
+                w,
+                out: strip,
+                n: 0,
+            },
+            last: [(-1, -1); 2],
+            len: 0,
+            tris: 0,
+            first: true,
+            left_only: false,
+            levels: self.g.levels(),
+        };
+        pass2.run();
+        Ok(counts)
+    }
+}

@@ -1,0 +1,319 @@
+//! Unit tests of preprocessing, refinement, strips and the error scan (std only in tests).
+
+use super::*;
+use crate::{Camera, Heightfield, Scale, Terrain};
+use glam::Vec3;
+use proptest::prelude::*;
+use std::vec;
+use std::vec::Vec;
+
+pub(crate) struct Mesh {
+    pub v: Vec<[f32; 3]>,
+    pub t: Vec<[u32; 3]>,
+}
+
+pub(crate) fn list<T: Terrain>(h: &Hierarchy<'_>, t: &T, c: Criterion) -> Mesh {
+    let r = Refiner::new(h, t, c).unwrap();
+    let (w, hh) = (t.width(), t.height());
+    let mut s = vec![0; scratch_len(w, hh)];
+    let n = r.count(&mut s).unwrap();
+    let mut v = vec![[0.0; 3]; n.vertices];
+    let mut tr = vec![[0; 3]; n.triangles];
+    let c2 = r.triangles(&mut s, &mut v, &mut tr).unwrap();
+    assert_eq!(c2, n);
+    Mesh { v, t: tr }
+}
+
+fn scan<T: Terrain>(t: &T, m: &Mesh) -> f64 {
+    let mut cov = vec![0; coverage_len(t.width(), t.height())];
+    vertical_error(t, &m.v, &m.t, &mut cov).unwrap()
+}
+
+fn ccw(m: &Mesh) -> bool {
+    m.t.iter().all(|t| {
+        let [a, b, c] = t.map(|i| m.v[i as usize]);
+        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]) > 0.0
+    })
+}
+
+fn area(m: &Mesh) -> f64 {
+    m.t.iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.v[i as usize].map(|x| x as f64));
+            0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+        })
+        .sum()
+}
+
+fn grid(w: u32, h: u32, seed: u64, amp: f32) -> Vec<f32> {
+    let mut s = seed | 1;
+    (0..w * h)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            ((s >> 11) % 1000) as f32 / 1000.0 * amp
+        })
+        .collect()
+}
+
+fn check_vi(samples: &[f32], w: u32, h: u32, e: f32) {
+    let hf = Heightfield::new(samples, w, h).unwrap();
+    let n = hierarchy_len(w, h);
+    let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+    let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+    let mut ec = vec![0u16; n];
+    let compact = preprocess_compact(&hf, &mut ec).unwrap();
+    for hier in [&full, &compact] {
+        let m = list(hier, &hf, Criterion::MaxError(e));
+        let err = scan(&hf, &m);
+        assert!(err <= e as f64, "{w}x{h} E={e}: measured {err}");
+        assert!(ccw(&m), "{w}x{h}: a triangle is not counter-clockwise");
+        let want = (w - 1) as f64 * (h - 1) as f64;
+        assert!((area(&m) - want).abs() < 1e-6 * want.max(1.0));
+    }
+}
+
+#[test]
+fn spike_flat_and_full_resolution() {
+    // Flat: two triangles whatever the size.
+    for (w, h) in [(2, 2), (3, 3), (9, 9), (17, 5), (6, 11)] {
+        let s = vec![3.0f32; (w * h) as usize];
+        let hf = Heightfield::new(&s, w, h).unwrap();
+        let mut e = vec![0u16; (w * h) as usize];
+        let hi = preprocess_compact(&hf, &mut e).unwrap();
+        let m = list(&hi, &hf, Criterion::MaxError(0.0));
+        assert_eq!(scan(&hf, &m), 0.0);
+        if hi.grid().is_square() {
+            assert_eq!(m.t.len(), 2, "{w}x{h}");
+        }
+    }
+    // E = 0 on noise: every sample is a vertex.
+    let (w, h) = (13, 10);
+    let s = grid(w, h, 7, 50.0);
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let (mut e, mut r) = (vec![0.0; 130], vec![0.0; 130]);
+    let hi = preprocess(&hf, &mut e, &mut r).unwrap();
+    let m = list(&hi, &hf, Criterion::MaxError(0.0));
+    assert_eq!(m.v.len(), 130);
+    assert_eq!(m.t.len(), triangle_bound(w, h));
+    assert_eq!(scan(&hf, &m), 0.0);
+}
+
+#[test]
+fn errors_are_nested_and_radii_contain_children() {
+    let (w, h) = (33, 33);
+    let s = grid(w, h, 3, 100.0);
+    let hf = Heightfield::with_scale(&s, w, h, Scale::default().with_spacing(2.0, 3.0)).unwrap();
+    let (mut e, mut r) = (vec![0.0; 33 * 33], vec![0.0; 33 * 33]);
+    let hi = preprocess(&hf, &mut e, &mut r).unwrap();
+    let g = hi.grid();
+    for y in 0..h {
+        for x in 0..w {
+            for c in g.children(x, y).iter().flatten() {
+                let (cx, cy) = (c.0 as u32, c.1 as u32);
+                assert!(hi.error(x, y).unwrap() >= hi.error(cx, cy).unwrap());
+                let p = hf.position(x, y).unwrap();
+                let q = hf.position(cx, cy).unwrap();
+                let d = p.distance(q) + hi.radius(cx, cy).unwrap();
+                assert!(hi.radius(x, y).unwrap() >= d, "radius nesting at {x},{y}");
+            }
+        }
+    }
+}
+
+#[test]
+fn buffer_one_too_small_is_an_error() {
+    let (w, h) = (17, 17);
+    let s = grid(w, h, 9, 20.0);
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let mut e = vec![0u16; 289];
+    let hi = preprocess_compact(&hf, &mut e).unwrap();
+    let r = Refiner::new(&hi, &hf, Criterion::MaxError(2.0)).unwrap();
+    let mut sc = vec![0; scratch_len(w, h)];
+    let c = r.count(&mut sc).unwrap();
+    let mut v = vec![[0.0; 3]; c.vertices];
+    let mut t = vec![[0; 3]; c.triangles - 1];
+    assert_eq!(
+        r.triangles(&mut sc, &mut v, &mut t),
+        Err(Error::BufferTooSmall {
+            needed: c.triangles,
+            actual: c.triangles - 1
+        })
+    );
+    let mut v2 = vec![[0.0; 3]; c.vertices - 1];
+    let mut t2 = vec![[0; 3]; c.triangles];
+    assert!(r.triangles(&mut sc, &mut v2, &mut t2).is_err());
+    assert!(r.count(&mut sc[1..]).is_err());
+    let mut e2 = vec![0u16; 288];
+    assert!(preprocess_compact(&hf, &mut e2).is_err());
+}
+
+/// Decodes a strip into counter-clockwise triangles (degenerates dropped).
+pub(crate) fn decode(strip: &[u32]) -> Vec<[u32; 3]> {
+    let mut out = Vec::new();
+    for k in 0..strip.len().saturating_sub(2) {
+        let (a, b, c) = (strip[k], strip[k + 1], strip[k + 2]);
+        if a == b || b == c || a == c {
+            continue;
+        }
+        out.push(if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
+    }
+    out
+}
+
+#[test]
+fn inout_strip_draws_the_list_mesh() {
+    for (n, seed, e) in [
+        (3u32, 1u64, 0.0f32),
+        (5, 2, 0.0),
+        (9, 3, 5.0),
+        (33, 4, 10.0),
+        (65, 5, 3.0),
+        (129, 6, 20.0),
+    ] {
+        let s = grid(n, n, seed, 100.0);
+        let hf = Heightfield::new(&s, n, n).unwrap();
+        let mut er = vec![0u16; (n * n) as usize];
+        let hi = preprocess_compact(&hf, &mut er).unwrap();
+        let r = Refiner::new(&hi, &hf, Criterion::MaxError(e)).unwrap();
+        let mut sc = vec![0; scratch_len(n, n)];
+        let mut v = vec![[0.0; 3]; (n * n) as usize];
+        let mut st = vec![0; strip_bound(n, n)];
+        let c = r.inout_strip(&mut sc, &mut v, &mut st).unwrap();
+        let tris = decode(&st[..c.indices]);
+        assert_eq!(tris.len(), c.triangles);
+        let m = Mesh {
+            v: v[..c.vertices].to_vec(),
+            t: tris.clone(),
+        };
+        assert!(ccw(&m), "n={n}: strip triangle not counter-clockwise");
+        assert!(scan(&hf, &m) <= e as f64);
+        let want = ((n - 1) * (n - 1)) as f64;
+        assert!(
+            (area(&m) - want).abs() < 1e-6 * want,
+            "n={n}: area {} vs {want}",
+            area(&m)
+        );
+        // Same as the list when the top levels are refined anyway.
+        let l = list(&hi, &hf, Criterion::MaxError(e));
+        if l.t.len() == tris.len() {
+            let key = |mm: &Mesh, t: [u32; 3]| {
+                let p = t.map(|i| mm.v[i as usize].map(f32::to_bits));
+                let k = (0..3).min_by_key(|&i| p[i]).unwrap();
+                [p[k], p[(k + 1) % 3], p[(k + 2) % 3]]
+            };
+            let mut x: Vec<_> = tris.iter().map(|&t| key(&m, t)).collect();
+            let mut y: Vec<_> = l.t.iter().map(|&t| key(&l, t)).collect();
+            x.sort();
+            y.sort();
+            assert_eq!(x, y, "n={n}");
+        }
+        std::println!(
+            "n={n} E={e}: {} indices for {} triangles ({:.3})",
+            c.indices,
+            c.triangles,
+            c.indices_per_triangle()
+        );
+    }
+}
+
+fn view_mesh<T: Terrain>(h: &Hierarchy<'_>, t: &T, v: View) -> Mesh {
+    list(h, t, Criterion::View(v))
+}
+
+/// Every in-frustum sample's vertical error, projected at its distance, is at most `tau`.
+fn screen_check<T: Terrain>(t: &T, m: &Mesh, cam: &Camera, tau: f32, near: f32) {
+    let planes = cam.frustum_planes(near, near * 1e6).unwrap();
+    let s = t.scale();
+    let (w, h) = (t.width() as i64, t.height() as i64);
+    let mut best = vec![f64::NAN; (w * h) as usize];
+    for tri in &m.t {
+        let p = tri.map(|i| {
+            let v = m.v[i as usize];
+            (
+                (v[0] / s.dx).round() as i64,
+                (v[1] / s.dy).round() as i64,
+                v[2] as f64,
+            )
+        });
+        let Some(pl) = raster::Plane::new(p) else {
+            continue;
+        };
+        raster::for_each_span(
+            (p[0].0, p[0].1),
+            (p[1].0, p[1].1),
+            (p[2].0, p[2].1),
+            |y, lo, hi| {
+                for x in lo..=hi {
+                    let e = (t.z(x as u32, y as u32) as f64 - pl.at(x, y)).abs();
+                    let b = &mut best[(y * w + x) as usize];
+                    if b.is_nan() || *b < e {
+                        *b = e;
+                    }
+                }
+            },
+        );
+    }
+    let kappa = cam.kappa() as f64;
+    for y in 0..h {
+        for x in 0..w {
+            let p = t.position(x as u32, y as u32).unwrap();
+            if !planes[..5].iter().all(|pl| pl.dot(p.extend(1.0)) >= 0.0) {
+                continue;
+            }
+            let e = best[(y * w + x) as usize];
+            assert!(!e.is_nan(), "in-view sample {x},{y} not covered");
+            let d = (p - cam.eye).length() as f64;
+            let px = e * kappa / d;
+            assert!(
+                px <= tau as f64 * (1.0 + 1e-5) + 1e-9,
+                "sample {x},{y}: {px} px > {tau}"
+            );
+        }
+    }
+}
+
+#[test]
+fn view_dependent_meets_pixel_threshold() {
+    let (w, h) = (65, 49);
+    let s = grid(w, h, 11, 30.0);
+    let hf = Heightfield::with_scale(&s, w, h, Scale::default().with_spacing(10.0, 10.0)).unwrap();
+    let n = hierarchy_len(w, h);
+    let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+    let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+    let mut ec = vec![0u16; n];
+    let compact = preprocess_compact(&hf, &mut ec).unwrap();
+    let cams = [
+        (Vec3::new(-50.0, -50.0, 200.0), Vec3::new(320.0, 240.0, 0.0)),
+        (Vec3::new(320.0, 240.0, 40.0), Vec3::new(600.0, 300.0, 10.0)),
+        (Vec3::new(320.0, 240.0, 5.0), Vec3::new(0.0, 240.0, 5.0)), // along the ground
+    ];
+    for (eye, target) in cams {
+        let cam = Camera::new(eye, target, 60.0, 320, 240).unwrap();
+        for hier in [&full, &compact] {
+            for lazy in [0, 4] {
+                let v = View::new(&cam, 2.0).unwrap().with_lazy_levels(lazy);
+                let m = view_mesh(hier, &hf, v);
+                assert!(ccw(&m));
+                screen_check(&hf, &m, &cam, 2.0, 0.1);
+            }
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(96))]
+    #[test]
+    fn view_independent_error_is_bounded(
+        w in 2u32..40, h in 2u32..40, seed in 1u64..1000, amp in 0.0f32..100.0, frac in 0.0f32..1.0,
+        quant in prop::bool::ANY,
+    ) {
+        let mut s = grid(w, h, seed, amp);
+        if quant {
+            for v in &mut s { *v = (*v * 10.0).round() / 10.0; }
+        }
+        let e = if quant { (frac * amp * 10.0).round() / 10.0 } else { frac * amp };
+        check_vi(&s, w, h, e);
+    }
+}
