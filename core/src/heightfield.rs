@@ -142,6 +142,11 @@ pub enum Surface {
     Bilinear,
     /// The height of the nearest sample (sample boxes), for comparison only.
     Nearest,
+    /// The linear-plane reconstruction of Henning & Stephenson (2004, section 3): along a ray,
+    /// the surface heights on the two cell faces the ray crosses, linearly interpolated between
+    /// them. It depends on the ray; as a height function ([`Terrain::surface_height`]) it is
+    /// evaluated as [`Surface::Triangles`], which agrees with it on every cell face.
+    Plane,
 }
 
 /// Read access to a regular grid of heights: what every algorithm in the crate works on.
@@ -254,7 +259,8 @@ pub trait Terrain {
         let [h00, h10, h01, h11] = self.cell_corners(cx, cy);
         Some(match surface {
             Surface::Bilinear => lerp(lerp(h00, h10, fx), lerp(h01, h11, fx), fy),
-            // Triangles (the only other variant). Barycentric weights, exact at the corners.
+            // Triangles, and Plane as a height function (see Surface::Plane). Barycentric
+            // weights, exact at the corners.
             _ => {
                 if fx >= fy {
                     // (x,y) (x+1,y) (x+1,y+1)

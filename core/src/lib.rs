@@ -39,6 +39,7 @@ mod compose;
 mod error;
 mod heightfield;
 mod normals;
+pub mod ray;
 mod sample;
 
 pub mod rbf;
@@ -49,6 +50,7 @@ pub use compose::Composed;
 pub use error::Error;
 pub use heightfield::{Heightfield, Scale, Surface, Terrain, MAX_ABS_HEIGHT, MIN_SCALE};
 pub use normals::{normal, normal_from_gradient, normal_map, NormalMethod};
+pub use ray::{Hit, Ray, RayTracer, Trace};
 pub use sample::Sample;
 pub use rbf::{AdaptiveGrid, Cascades, InfluenceSets, Rbf};
 pub use refine::{Hierarchy, RefineGrid, Refiner};

@@ -1,0 +1,500 @@
+//! Grid traversal of a projected ray: the cell DDA (Amanatides & Woo, *A Fast Voxel Traversal
+//! Algorithm for Ray Tracing*, 1987) and the run-length DDA of Henning & Stephenson,
+//! *Accelerating the Ray Tracing of Height Fields* (2004), section 2.
+//!
+//! Both walk the same *digital line*: the projected ray in fixed point. The direction is scaled
+//! to integers `(DX, DY)` with `max(|DX|, |DY|)` in `[2^39, 2^40]` and the start point is rounded
+//! to `2^-21` cells, so every decision is an integer add and a sign test:
+//!
+//! - the 8-way symmetry folds the slope into `0 <= alpha <= 1` (major axis `u`, minor axis `v`,
+//!   both increasing in the folded frame);
+//! - the *intercept* `B` is the minor coordinate of the line at the left face of the current
+//!   column, relative to the bottom of the current row, in units of `1 / (DX 2^21)` of a cell:
+//!   one row is `Q = DX 2^21`, one column step adds `A = DY 2^21` (so `alpha = A / Q`);
+//! - the cell DDA compares `B + A` with `Q` (the exit crosses the right face, the top face, or
+//!   exactly the corner), which is Amanatides & Woo's `tMaxX < tMaxY` test made exact;
+//! - the run DDA uses the short run `r = floor(Q / A)` and the remainder `rho = Q - r A`
+//!   (the paper's `nu = A - rho` and `mu = rho`): with the shifted intercept `C = B - rho`, the
+//!   row holds `r + 1` cells (4-connected) when `C + A > 0`, `r + 2` when `C + A < 0`, and a
+//!   corner intersection (no 4-connected extension) happens when `C + A == 0` (or `C == 0` for
+//!   slopes exactly `1/k`). The truncated first run needs one division per ray.
+//!
+//! At an exact corner both DDAs step diagonally: the ray touches the two side cells only in one
+//! point, where the surface is the shared corner height. A line lying exactly on a grid line is
+//! assigned to the cell on the side the folding picks (the cell above/right, except on the upper
+//! domain border, where the cell inside the domain is picked). Because both DDAs use the same
+//! integers, the cells a [`RunDda`] implies equal the cells of the [`CellDda`] exactly; for
+//! directions that are small integers and start points with at most 21 fractional bits the
+//! digital line *is* the real line, which the tests check against an exact rational reference.
+//! For other rays the digital line is within about `2^-21 + n 2^-39` cells of the real one after
+//! `n` cells.
+
+use crate::Error;
+use glam::DVec2;
+
+const FRAC_BITS: u32 = 21;
+const DIR_BITS: i32 = 40;
+
+/// A projected ray in fixed point, folded into the first octant, clipped to a grid of cells:
+/// the shared set-up of [`CellDda`] and [`RunDda`].
+///
+/// ```
+/// use relief_core::ray::GridLine;
+/// use glam::DVec2;
+/// let line = GridLine::new(DVec2::new(0.5, 0.5), DVec2::new(3.0, 1.0), DVec2::new(8.0, 8.0), [8, 8]).unwrap();
+/// assert_eq!(line.cells().count(), line.runs().map(|r| r.len as usize).sum::<usize>());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GridLine {
+    /// The major axis is y.
+    pub(crate) swap: bool,
+    /// The major direction is positive.
+    pub(crate) pos_u: bool,
+    /// The minor direction is positive.
+    pub(crate) pos_v: bool,
+    /// One row in intercept units (`DX << 21`).
+    pub(crate) q: i64,
+    /// Intercept increment per column (`DY << 21`).
+    pub(crate) a: i64,
+    /// Short run `floor(q / a)` (0 when `a == 0`).
+    pub(crate) r: i64,
+    /// `q - r a`.
+    pub(crate) rho: i64,
+    /// Start cell, folded.
+    pub(crate) u0: i64,
+    pub(crate) v0: i64,
+    /// Intercept at the left face of the start column, relative to the start row.
+    pub(crate) b0: i64,
+    /// Last folded column and row that may be visited.
+    pub(crate) u_last: i64,
+    pub(crate) v_last: i64,
+}
+
+/// Folded cell range `[min, max]` of an axis with `n` cells.
+#[inline]
+fn folded_range(n: u32, pos: bool) -> (i64, i64) {
+    if pos {
+        (0, n as i64 - 1)
+    } else {
+        (-(n as i64), -1)
+    }
+}
+
+/// Unfolds a folded cell index.
+#[inline]
+fn unfold(c: i64, pos: bool) -> u32 {
+    (if pos { c } else { -c - 1 }) as u32
+}
+
+impl GridLine {
+    /// Sets up the digital line from `start` along `dir` (both in grid units, where cell
+    /// `(cx, cy)` is the square `[cx, cx+1] x [cy, cy+1]`) over a grid of `cells.x x cells.y`
+    /// cells, stopping after the cell that contains `stop` (the end of the segment). `start` and
+    /// `stop` are clamped into the grid. A zero direction visits the start cell only.
+    ///
+    /// Errors: [`Error::NonFiniteInput`] for NaN or infinite input, [`Error::TooSmall`] for a
+    /// grid without cells.
+    ///
+    /// ```
+    /// use relief_core::ray::GridLine;
+    /// use glam::DVec2;
+    /// let line = GridLine::new(DVec2::ZERO, DVec2::X, DVec2::new(2.5, 0.0), [4, 4]).unwrap();
+    /// let cells: Vec<[u32; 2]> = line.cells().collect();
+    /// assert_eq!(cells, vec![[0, 0], [1, 0], [2, 0]]);
+    /// assert!(GridLine::new(DVec2::NAN, DVec2::X, DVec2::ZERO, [4, 4]).is_err());
+    /// ```
+    pub fn new(start: DVec2, dir: DVec2, stop: DVec2, cells: [u32; 2]) -> Result<GridLine, Error> {
+        let cells = super::Cells {
+            x: cells[0],
+            y: cells[1],
+        };
+        if !start.is_finite() {
+            return Err(Error::NonFiniteInput { name: "start" });
+        }
+        if !dir.is_finite() {
+            return Err(Error::NonFiniteInput { name: "direction" });
+        }
+        if !stop.is_finite() {
+            return Err(Error::NonFiniteInput { name: "stop" });
+        }
+        if cells.x == 0 || cells.y == 0 || cells.x > (1 << 30) || cells.y > (1 << 30) {
+            return Err(Error::TooSmall {
+                width: cells.x.saturating_add(1),
+                height: cells.y.saturating_add(1),
+            });
+        }
+        let ext = cells.as_dvec2();
+        let start = start.clamp(DVec2::ZERO, ext);
+        let degenerate = dir.x == 0.0 && dir.y == 0.0;
+        let stop = if degenerate {
+            start
+        } else {
+            stop.clamp(DVec2::ZERO, ext)
+        };
+        let swap = dir.y.abs() > dir.x.abs();
+        let (mu, mv, su, sv, eu, ev, nu, nv) = if swap {
+            (
+                dir.y, dir.x, start.y, start.x, stop.y, stop.x, cells.y, cells.x,
+            )
+        } else {
+            (
+                dir.x, dir.y, start.x, start.y, stop.x, stop.y, cells.x, cells.y,
+            )
+        };
+        let pos_u = mu >= 0.0;
+        // A zero minor component lies on a grid line parallel to the major axis: pick the side
+        // inside the domain on the upper border.
+        let pos_v = if mv > 0.0 {
+            true
+        } else if mv < 0.0 {
+            false
+        } else {
+            sv < nv as f64
+        };
+        // Fixed-point direction: max(|DX|, |DY|) in [2^39, 2^40].
+        let (dxi, dyi) = if degenerate {
+            (1i64 << (DIR_BITS - 1), 0i64)
+        } else {
+            let (m, e) = libm::frexp(mu.abs());
+            let dx = libm::round(libm::ldexp(m, DIR_BITS)) as i64;
+            let dy = libm::round(libm::ldexp(mv.abs(), DIR_BITS - e)) as i64;
+            (dx, dy.min(dx))
+        };
+        let q = dxi << FRAC_BITS;
+        let a = dyi << FRAC_BITS;
+        let (r, rho) = if a > 0 {
+            (q / a, q - (q / a) * a)
+        } else {
+            (0, 0)
+        };
+        let one = (1i64 << FRAC_BITS) as f64;
+        let fold = |g: f64, pos: bool| if pos { g } else { -g };
+        let uf = libm::round(fold(su, pos_u) * one) as i64;
+        let vf = libm::round(fold(sv, pos_v) * one) as i64;
+        let (umin, umax) = folded_range(nu, pos_u);
+        let (vmin, vmax) = folded_range(nv, pos_v);
+        let u0 = (uf >> FRAC_BITS).clamp(umin, umax);
+        let v0 = (vf >> FRAC_BITS).clamp(vmin, vmax);
+        // In [-A, Q]: both factors are below 2^21 + 1 and 2^40 + 1, so no overflow.
+        let b0 = dxi * (vf - (v0 << FRAC_BITS)) + ((u0 << FRAC_BITS) - uf) * dyi;
+        let (u_last, v_last) = if degenerate {
+            (u0, v0)
+        } else {
+            let ue = libm::floor(fold(eu, pos_u)) as i64;
+            let ve = libm::floor(fold(ev, pos_v)) as i64;
+            (ue.clamp(umin, umax), ve.clamp(vmin, vmax))
+        };
+        Ok(GridLine {
+            swap,
+            pos_u,
+            pos_v,
+            q,
+            a,
+            r,
+            rho,
+            u0,
+            v0,
+            b0,
+            u_last,
+            v_last,
+        })
+    }
+
+    /// Unfolds a folded `(u, v)` cell into grid coordinates `[x, y]`.
+    #[inline]
+    pub(crate) fn cell(&self, u: i64, v: i64) -> [u32; 2] {
+        let (a, b) = (unfold(u, self.pos_u), unfold(v, self.pos_v));
+        if self.swap {
+            [b, a]
+        } else {
+            [a, b]
+        }
+    }
+
+    /// The cell DDA over this line.
+    ///
+    /// ```
+    /// use relief_core::ray::GridLine;
+    /// use glam::DVec2;
+    /// let line = GridLine::new(DVec2::new(0.5, 0.5), DVec2::ONE, DVec2::new(3.5, 3.5), [4, 4]).unwrap();
+    /// // Exactly diagonal: it passes through the corners and steps diagonally there.
+    /// assert_eq!(line.cells().collect::<Vec<_>>(), vec![[0, 0], [1, 1], [2, 2], [3, 3]]);
+    /// ```
+    #[must_use]
+    pub fn cells(&self) -> CellDda {
+        CellDda {
+            line: *self,
+            u: self.u0,
+            v: self.v0,
+            b: self.b0,
+        }
+    }
+
+    /// The run-length DDA over this line.
+    ///
+    /// ```
+    /// use relief_core::ray::GridLine;
+    /// use glam::DVec2;
+    /// let line = GridLine::new(DVec2::new(0.5, 0.5), DVec2::new(4.0, 1.0), DVec2::new(16.0, 16.0), [16, 16]).unwrap();
+    /// let lens: Vec<u32> = line.runs().map(|r| r.len).take(3).collect();
+    /// assert_eq!(lens, vec![3, 5, 5]); // truncated first run, then r + 1 = 5 (4-connected)
+    /// ```
+    #[must_use]
+    pub fn runs(&self) -> RunDda {
+        RunDda {
+            line: *self,
+            u: self.u0,
+            v: self.v0,
+            b: self.b0,
+            first: true,
+        }
+    }
+
+    /// An upper bound on the number of cells either DDA visits: columns plus rows spanned.
+    ///
+    /// ```
+    /// use relief_core::ray::GridLine;
+    /// use glam::DVec2;
+    /// let line = GridLine::new(DVec2::ZERO, DVec2::ONE, DVec2::splat(9.0), [10, 10]).unwrap();
+    /// assert!(line.cells().count() as u64 <= line.step_bound());
+    /// ```
+    #[must_use]
+    pub fn step_bound(&self) -> u64 {
+        ((self.u_last - self.u0 + 1).max(0) + (self.v_last - self.v0 + 1).max(0)) as u64
+    }
+}
+
+/// Amanatides & Woo cell DDA: yields the cells `[x, y]` of the 4-connected digital line in
+/// order (diagonal steps only at exact corners). `Copy`; at most
+/// [`GridLine::step_bound`] items.
+///
+/// ```
+/// use relief_core::ray::GridLine;
+/// use glam::DVec2;
+/// let line = GridLine::new(DVec2::new(0.5, 0.5), DVec2::new(2.0, 1.0), DVec2::new(4.0, 4.0), [4, 4]).unwrap();
+/// let cells: Vec<_> = line.cells().take(4).collect();
+/// assert_eq!(cells, vec![[0, 0], [1, 0], [1, 1], [2, 1]]);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CellDda {
+    line: GridLine,
+    u: i64,
+    v: i64,
+    b: i64,
+}
+
+impl CellDda {
+    /// The next cell in the folded frame `(u, v)`, for callers that work there.
+    #[inline]
+    pub(crate) fn next_folded(&mut self) -> Option<(i64, i64)> {
+        let l = &self.line;
+        if self.u > l.u_last || self.v > l.v_last {
+            return None;
+        }
+        let out = (self.u, self.v);
+        let e = self.b + l.a;
+        if e < l.q {
+            self.u += 1;
+            self.b = e;
+        } else if e > l.q {
+            self.v += 1;
+            self.b -= l.q;
+        } else {
+            self.u += 1;
+            self.v += 1;
+            self.b = 0;
+        }
+        Some(out)
+    }
+}
+
+impl Iterator for CellDda {
+    type Item = [u32; 2];
+    #[inline]
+    fn next(&mut self) -> Option<[u32; 2]> {
+        let (u, v) = self.next_folded()?;
+        Some(self.line.cell(u, v))
+    }
+}
+
+/// A run of cells: `len` contiguous cells of one row (`along_y == false`) or one column, starting
+/// at `start` and stepping by `step` (`+1` or `-1`) along that axis.
+///
+/// ```
+/// use relief_core::ray::CellRun;
+/// let run = CellRun { start: [5, 2], len: 3, along_y: false, step: -1 };
+/// assert_eq!(run.cell(2), Some([3, 2]));
+/// assert_eq!(run.span(), (3, 5));
+/// assert_eq!(run.cell(3), None);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CellRun {
+    /// First cell `[x, y]` in traversal order.
+    pub start: [u32; 2],
+    /// Number of cells, at least 1.
+    pub len: u32,
+    /// The run lies in one column (cells vary in y) rather than one row.
+    pub along_y: bool,
+    /// Direction of traversal along the run: `1` or `-1`.
+    pub step: i32,
+}
+
+impl CellRun {
+    /// The `k`-th cell of the run, `None` past its end.
+    ///
+    /// ```
+    /// use relief_core::ray::CellRun;
+    /// let run = CellRun { start: [1, 4], len: 2, along_y: true, step: 1 };
+    /// assert_eq!(run.cell(1), Some([1, 5]));
+    /// ```
+    #[must_use]
+    pub fn cell(&self, k: u32) -> Option<[u32; 2]> {
+        if k >= self.len {
+            return None;
+        }
+        let i = usize::from(self.along_y);
+        let mut c = self.start;
+        let base = *c.get(i)? as i64 + self.step as i64 * k as i64;
+        *c.get_mut(i)? = u32::try_from(base).ok()?;
+        Some(c)
+    }
+
+    /// Lowest and highest coordinate along the run's axis.
+    ///
+    /// ```
+    /// use relief_core::ray::CellRun;
+    /// let run = CellRun { start: [1, 4], len: 2, along_y: true, step: 1 };
+    /// assert_eq!(run.span(), (4, 5));
+    /// ```
+    #[must_use]
+    pub fn span(&self) -> (u32, u32) {
+        let s = if self.along_y {
+            self.start[1]
+        } else {
+            self.start[0]
+        };
+        let n = self.len.saturating_sub(1);
+        if self.step < 0 {
+            (s.saturating_sub(n), s)
+        } else {
+            (s, s.saturating_add(n))
+        }
+    }
+
+    /// The cells of the run in traversal order.
+    ///
+    /// ```
+    /// use relief_core::ray::CellRun;
+    /// let run = CellRun { start: [1, 4], len: 2, along_y: false, step: -1 };
+    /// assert_eq!(run.cells().collect::<Vec<_>>(), vec![[1, 4], [0, 4]]);
+    /// ```
+    pub fn cells(self) -> impl Iterator<Item = [u32; 2]> {
+        (0..self.len).filter_map(move |k| self.cell(k))
+    }
+}
+
+/// A run in the folded frame: row `v`, columns `u_a..=u_b`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct FoldedRun {
+    pub v: i64,
+    pub u_a: i64,
+    pub u_b: i64,
+}
+
+/// Run-length DDA (Henning & Stephenson 2004): yields whole [`CellRun`]s of the 4-connected
+/// digital line, at constant cost per run. The cells they imply, in order, are exactly those of
+/// [`GridLine::cells`]. `Copy`; at most one run per row crossed.
+///
+/// ```
+/// use relief_core::ray::GridLine;
+/// use glam::DVec2;
+/// let line = GridLine::new(DVec2::new(0.25, 0.5), DVec2::new(7.0, 2.0), DVec2::splat(32.0), [32, 32]).unwrap();
+/// let from_runs: Vec<[u32; 2]> = line.runs().flat_map(|r| r.cells()).collect();
+/// assert_eq!(from_runs, line.cells().collect::<Vec<_>>());
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunDda {
+    line: GridLine,
+    /// First column of the current row (4-connected).
+    u: i64,
+    v: i64,
+    /// Intercept at the left face of column `u`, relative to row `v`.
+    b: i64,
+    first: bool,
+}
+
+impl RunDda {
+    /// The next run in the folded frame.
+    #[inline]
+    pub(crate) fn next_folded(&mut self) -> Option<FoldedRun> {
+        let l = self.line;
+        if self.u > l.u_last || self.v > l.v_last {
+            return None;
+        }
+        let u = self.u;
+        if l.a == 0 {
+            // Parallel to the major axis: one run to the end.
+            self.u = l.u_last + 1;
+            return Some(FoldedRun {
+                v: self.v,
+                u_a: u,
+                u_b: l.u_last,
+            });
+        }
+        // (cells in this row, next row's first column, next intercept)
+        let (n, nu, nb) = if self.first {
+            self.first = false;
+            // Truncated first run: one division per ray.
+            let n = ((l.q - self.b + l.a - 1) / l.a).max(1);
+            let e = self.b + n * l.a;
+            if e == l.q {
+                (n, u + n, 0)
+            } else {
+                (n, u + n - 1, e - l.a - l.q)
+            }
+        } else {
+            let c = self.b - l.rho;
+            if c == 0 {
+                (l.r, u + l.r, 0)
+            } else {
+                let d = c + l.a;
+                if d > 0 {
+                    (l.r + 1, u + l.r, c)
+                } else if d == 0 {
+                    (l.r + 1, u + l.r + 1, 0)
+                } else {
+                    (l.r + 2, u + l.r + 1, d)
+                }
+            }
+        };
+        let run = FoldedRun {
+            v: self.v,
+            u_a: u,
+            u_b: (u + n - 1).min(l.u_last),
+        };
+        self.v += 1;
+        self.u = nu;
+        self.b = nb;
+        Some(run)
+    }
+
+    /// Unfolds a folded run.
+    #[inline]
+    pub(crate) fn unfold_run(&self, f: FoldedRun) -> CellRun {
+        CellRun {
+            start: self.line.cell(f.u_a, f.v),
+            len: (f.u_b - f.u_a + 1) as u32,
+            along_y: self.line.swap,
+            step: if self.line.pos_u { 1 } else { -1 },
+        }
+    }
+}
+
+impl Iterator for RunDda {
+    type Item = CellRun;
+    #[inline]
+    fn next(&mut self) -> Option<CellRun> {
+        let f = self.next_folded()?;
+        Some(self.unfold_run(f))
+    }
+}
