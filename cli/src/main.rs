@@ -25,6 +25,8 @@ enum Command {
     Info(cmd::info::InfoArgs),
     /// Adaptive grid + truncated Gaussian RBF approximation of a DEM (cells CSV, raw f32).
     Rbf(cmd::rbf::RbfArgs),
+    /// Ray trace a DEM from a camera into a depth image (cell-dda, run-dda, maxmip, march).
+    Trace(cmd::trace::TraceArgs),
 }
 
 /// A failure to report: one line, exit code 2.
@@ -70,6 +72,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info(a) => cmd::info::run(&a),
         Command::Rbf(a) => cmd::rbf::run(&a),
+        Command::Trace(a) => cmd::trace::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -34,4 +34,4 @@ mod write;
 pub use dem::{Dem, Stats};
 pub use error::IoError;
 pub use read::{decode_dem, read_dem, Fill, Format, ReadOptions};
-pub use write::{write_atomic, write_obj, write_png16, write_raw_f32};
+pub use write::{write_atomic, write_obj, write_png16, write_png_rgb8, write_raw_f32};

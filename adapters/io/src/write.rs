@@ -141,3 +141,32 @@ pub fn write_obj(
         Ok(())
     })
 }
+
+/// Writes an 8-bit RGB PNG of `width * height` pixels (`3 * width * height` bytes).
+///
+/// ```
+/// let dir = tempfile::tempdir().unwrap();
+/// let p = dir.path().join("c.png");
+/// relief_io::write_png_rgb8(&p, 1, 2, &[255, 0, 0, 0, 0, 255]).unwrap();
+/// assert!(relief_io::write_png_rgb8(&p, 2, 2, &[0; 6]).is_err());
+/// ```
+pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<(), IoError> {
+    let n = width as usize * height as usize * 3;
+    if rgb.len() != n || n == 0 {
+        return Err(IoError::SizeMismatch {
+            expected: n as u64,
+            actual: rgb.len() as u64,
+            what: "bytes",
+        });
+    }
+    write_atomic(path, |w| {
+        let mut enc = png::Encoder::new(w, width, height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut writer = enc.write_header().map_err(std::io::Error::other)?;
+        writer
+            .write_image_data(rgb)
+            .map_err(std::io::Error::other)?;
+        writer.finish().map_err(std::io::Error::other)
+    })
+}

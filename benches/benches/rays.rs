@@ -1,0 +1,189 @@
+//! Ray traversal and tracing benchmarks (issue 4).
+//!
+//! `cargo bench -p relief-benches --bench rays`
+//!
+//! - `rays_traversal/*`: the run-length DDA (yielding whole runs) against the cell DDA (yielding
+//!   cells) over the same 256 lines in uniformly spread orientations across a 1024 x 1024 grid,
+//!   and by run length (slopes `1 / L`).
+//! - `rays_trace_*`: full tracing of camera rays on the bundled Puget Sound DEM (1025 x 1025,
+//!   160 m spacing, z 0.1), one thread, triangles surface: cell DDA, run DDA (whole-run
+//!   rejection), max-mip; for a camera view and a grazing view.
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use relief_core::glam::{DVec2, Vec3};
+use relief_core::ray::{GridLine, MaxMip, Ray, RayTracer, RunAccel};
+use relief_core::{Camera, Surface};
+use std::hint::black_box;
+use std::path::Path;
+
+fn load() -> relief_io::Dem {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
+    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
+    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    dem
+}
+
+const N: u32 = 1024;
+
+/// Lines from near the centre to the border in `n` orientations spread over the full circle.
+fn orientation_lines(n: usize) -> Vec<GridLine> {
+    let c = DVec2::new(512.37, 511.71);
+    (0..n)
+        .map(|i| {
+            let a = (i as f64 + 0.5) / n as f64 * std::f64::consts::TAU;
+            let d = DVec2::new(a.cos(), a.sin());
+            GridLine::new(c, d, c + d * 4096.0, [N, N]).unwrap()
+        })
+        .collect()
+}
+
+/// Lines with slope `1 / len` (mean run length `len`), from the lower-left area.
+fn slope_lines(len: f64) -> Vec<GridLine> {
+    (0..32)
+        .map(|i| {
+            let s = DVec2::new(1.3 + i as f64 * 0.71, 2.1 + i as f64 * 0.37);
+            let d = DVec2::new(len, 1.0);
+            GridLine::new(s, d, s + d * 4096.0, [N, N]).unwrap()
+        })
+        .collect()
+}
+
+fn walk_cells(lines: &[GridLine]) -> u64 {
+    let mut acc = 0u64;
+    for l in lines {
+        for [x, y] in l.cells() {
+            acc = acc.wrapping_add((x ^ y) as u64);
+        }
+    }
+    acc
+}
+
+fn walk_runs(lines: &[GridLine]) -> u64 {
+    let mut acc = 0u64;
+    for l in lines {
+        for r in l.runs() {
+            acc = acc.wrapping_add((r.start[0] ^ r.start[1]) as u64 + r.len as u64);
+        }
+    }
+    acc
+}
+
+fn traversal(c: &mut Criterion) {
+    let lines = orientation_lines(256);
+    let cells: u64 = lines.iter().map(|l| l.cells().count() as u64).sum();
+    let mut g = c.benchmark_group("rays_traversal");
+    g.throughput(Throughput::Elements(cells));
+    g.bench_function("all_orientations/cell-dda", |b| {
+        b.iter(|| walk_cells(black_box(&lines)))
+    });
+    g.bench_function("all_orientations/run-dda", |b| {
+        b.iter(|| walk_runs(black_box(&lines)))
+    });
+    for len in [1.1f64, 2.0, 4.0, 8.0, 25.0, 100.0] {
+        let lines = slope_lines(len + 0.013);
+        let cells: u64 = lines.iter().map(|l| l.cells().count() as u64).sum();
+        g.throughput(Throughput::Elements(cells));
+        g.bench_with_input(
+            BenchmarkId::new("run_length/cell-dda", len),
+            &lines,
+            |b, l| b.iter(|| walk_cells(black_box(l))),
+        );
+        g.bench_with_input(
+            BenchmarkId::new("run_length/run-dda", len),
+            &lines,
+            |b, l| b.iter(|| walk_runs(black_box(l))),
+        );
+    }
+    g.finish();
+}
+
+fn camera_rays(cam: &Camera) -> Vec<Ray> {
+    let mut v = Vec::with_capacity((cam.width * cam.height) as usize);
+    for j in 0..cam.height {
+        for i in 0..cam.width {
+            let (o, d) = cam.ray(i, j);
+            v.push(Ray::new(o, d).unwrap());
+        }
+    }
+    v
+}
+
+fn tracing(c: &mut Criterion) {
+    let dem = load();
+    let hf = dem.heightfield().unwrap();
+    let tracer = RayTracer::new(&hf, Surface::Triangles);
+    let (lo, hi) = tracer.height_range();
+    let mut rbuf = vec![0.0f32; RunAccel::len(dem.width, dem.height).unwrap()];
+    let acc = RunAccel::build(&hf, &mut rbuf).unwrap();
+    let mut mbuf = vec![0.0f32; MaxMip::len(dem.width, dem.height).unwrap()];
+    let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
+    let views = [
+        (
+            "camera",
+            Camera::new(
+                Vec3::new(20_000.0, 15_000.0, hi + 3_000.0),
+                Vec3::new(90_000.0, 100_000.0, lo),
+                60.0,
+                192,
+                128,
+            )
+            .unwrap(),
+        ),
+        (
+            "grazing",
+            Camera::new(
+                Vec3::new(2_000.0, 3_000.0, hi + 30.0),
+                Vec3::new(160_000.0, 150_000.0, hi + 10.0),
+                30.0,
+                192,
+                128,
+            )
+            .unwrap(),
+        ),
+    ];
+    for (name, cam) in views {
+        let rays = camera_rays(&cam);
+        let mut g = c.benchmark_group(format!("rays_trace_{name}"));
+        g.throughput(Throughput::Elements(rays.len() as u64));
+        g.sample_size(10);
+        g.bench_function("cell-dda", |b| {
+            b.iter(|| {
+                let mut hits = 0u32;
+                for r in &rays {
+                    hits += tracer.trace_cell_dda(black_box(r)).hit.is_some() as u32;
+                }
+                hits
+            })
+        });
+        g.bench_function("run-dda", |b| {
+            b.iter(|| {
+                let mut hits = 0u32;
+                for r in &rays {
+                    hits += tracer
+                        .trace_run_dda(black_box(r), &acc)
+                        .unwrap()
+                        .hit
+                        .is_some() as u32;
+                }
+                hits
+            })
+        });
+        g.bench_function("maxmip", |b| {
+            b.iter(|| {
+                let mut hits = 0u32;
+                for r in &rays {
+                    hits += tracer
+                        .trace_maxmip(black_box(r), &mip)
+                        .unwrap()
+                        .hit
+                        .is_some() as u32;
+                }
+                hits
+            })
+        });
+        g.finish();
+    }
+}
+
+criterion_group!(benches, traversal, tracing);
+criterion_main!(benches);

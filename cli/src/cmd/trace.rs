@@ -1,0 +1,299 @@
+//! `relief trace`: ray trace a DEM from a camera into a depth image (CONVENTIONS.md), with the
+//! cell DDA, the run-length DDA, the maximum mipmap or linear + binary search marching.
+//! Rows are traced in parallel (rayon); the core tracer itself is single-threaded.
+
+use crate::args::DemArgs;
+use crate::{print_out, CliError, CliResult};
+use clap::{Args, ValueEnum};
+use rayon::prelude::*;
+use relief_core::glam::Vec3;
+use relief_core::ray::{MarchOptions, MaxMip, Ray, RayTracer, RunAccel, Trace};
+use relief_core::{Camera, Heightfield, Surface};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Traversal method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// Amanatides & Woo cell DDA (baseline).
+    CellDda,
+    /// Run-length DDA with whole-run rejection (Henning & Stephenson 2004).
+    RunDda,
+    /// Maximum-mipmap traversal (Tevs et al. 2008).
+    Maxmip,
+    /// Linear + binary search marching (Kentie), approximate.
+    March,
+}
+
+/// Surface hit by the rays.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SurfaceArg {
+    /// Two triangles per cell (reference).
+    Triangles,
+    /// Bilinear patch per cell.
+    Bilinear,
+    /// Linear-plane reconstruction (seed 001).
+    Plane,
+    /// Nearest-sample boxes.
+    Nearest,
+}
+
+impl SurfaceArg {
+    fn surface(self) -> Surface {
+        match self {
+            SurfaceArg::Triangles => Surface::Triangles,
+            SurfaceArg::Bilinear => Surface::Bilinear,
+            SurfaceArg::Plane => Surface::Plane,
+            SurfaceArg::Nearest => Surface::Nearest,
+        }
+    }
+}
+
+/// Options of `relief trace`.
+#[derive(Debug, Args)]
+pub struct TraceArgs {
+    #[command(flatten)]
+    dem: DemArgs,
+    /// Eye position X,Y,Z in world units.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    eye: Vec3,
+    /// Point looked at X,Y,Z.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    target: Vec3,
+    /// Vertical field of view in degrees.
+    #[arg(long, default_value_t = 60.0)]
+    fov: f32,
+    /// Image size WxH in pixels.
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Traversal method.
+    #[arg(long, value_enum, default_value = "maxmip")]
+    method: Method,
+    /// Surface.
+    #[arg(long, value_enum, default_value = "triangles")]
+    surface: SurfaceArg,
+    /// Samples per ray for `march` (default 256).
+    #[arg(long, value_name = "N")]
+    samples: Option<u32>,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_name = "N")]
+    threads: Option<usize>,
+    /// Depth image: little-endian f32, row-major, +inf for a miss.
+    #[arg(long, value_name = "PATH")]
+    out: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(format!("expected X,Y,Z, got '{s}'"));
+    }
+    let mut v = [0.0f32; 3];
+    for (o, p) in v.iter_mut().zip(&parts) {
+        *o = p
+            .trim()
+            .parse::<f32>()
+            .map_err(|_| format!("'{p}' is not a number"))?;
+        if !o.is_finite() {
+            return Err(format!("'{p}' is not finite"));
+        }
+    }
+    Ok(Vec3::from_array(v))
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WxH, got '{s}'"))?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width '{w}'"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height '{h}'"))?;
+    if w == 0 || h == 0 || (w as u64) * (h as u64) > 1 << 28 {
+        return Err(format!(
+            "image size {w}x{h} must be at least 1x1 and at most 2^28 pixels"
+        ));
+    }
+    Ok((w, h))
+}
+
+/// Per-row statistics.
+#[derive(Default, Clone, Copy)]
+struct Stats {
+    hits: u64,
+    cells: u64,
+    steps: u64,
+    max_step_cells: f64,
+    max_bracket: f64,
+}
+
+impl Stats {
+    fn add(mut self, o: Stats) -> Stats {
+        self.hits += o.hits;
+        self.cells += o.cells;
+        self.steps += o.steps;
+        self.max_step_cells = self.max_step_cells.max(o.max_step_cells);
+        self.max_bracket = self.max_bracket.max(o.max_bracket);
+        self
+    }
+}
+
+enum Accel<'a> {
+    None,
+    Run(RunAccel<'a>),
+    Mip(MaxMip<'a>),
+}
+
+/// Runs `relief trace`.
+pub fn run(a: &TraceArgs) -> CliResult {
+    let (w, h) = a.size;
+    let samples = a.samples.unwrap_or(256);
+    if samples == 0 {
+        return Err(CliError("--samples must be at least 1".into()));
+    }
+    if a.samples.is_some() && a.method != Method::March {
+        return Err(CliError("--samples only applies to --method march".into()));
+    }
+    if a.threads == Some(0) {
+        return Err(CliError("--threads must be at least 1".into()));
+    }
+    let camera = Camera::new(a.eye, a.target, a.fov, w, h)?;
+    let (dem, _) = a.dem.load()?;
+    let hf: Heightfield<'_, f32> = dem.heightfield()?;
+
+    let t0 = Instant::now();
+    let tracer = RayTracer::new(&hf, a.surface.surface());
+    let mut buf: Vec<f32> = Vec::new();
+    let len = match a.method {
+        Method::RunDda => RunAccel::len(dem.width, dem.height),
+        Method::Maxmip => MaxMip::len(dem.width, dem.height),
+        _ => Some(0),
+    }
+    .ok_or_else(|| CliError("grid too large for acceleration data".into()))?;
+    buf.try_reserve_exact(len)
+        .map_err(|_| CliError(format!("cannot allocate {len} floats of acceleration data")))?;
+    buf.resize(len, 0.0);
+    let accel = match a.method {
+        Method::RunDda => Accel::Run(RunAccel::build(&hf, &mut buf)?),
+        Method::Maxmip => Accel::Mip(MaxMip::build(&hf, &mut buf)?),
+        _ => Accel::None,
+    };
+    let preprocess_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let opts = MarchOptions::default().with_samples(samples);
+
+    let mut depth = vec![f32::INFINITY; w as usize * h as usize];
+    let trace_row = |j: usize, row: &mut [f32]| -> Result<Stats, String> {
+        let mut st = Stats::default();
+        for (i, px) in row.iter_mut().enumerate() {
+            let (o, d) = camera.ray(i as u32, j as u32);
+            let ray = Ray::new(o, d).map_err(|e| e.to_string())?;
+            let tr: Trace = match (&accel, a.method) {
+                (Accel::Run(acc), _) => {
+                    tracer.trace_run_dda(&ray, acc).map_err(|e| e.to_string())?
+                }
+                (Accel::Mip(mip), _) => {
+                    tracer.trace_maxmip(&ray, mip).map_err(|e| e.to_string())?
+                }
+                (Accel::None, Method::March) => {
+                    let m = tracer.trace_march(&ray, &opts).map_err(|e| e.to_string())?;
+                    st.max_step_cells = st.max_step_cells.max(m.step_cells);
+                    if m.trace.hit.is_some() {
+                        st.max_bracket = st.max_bracket.max(m.bracket);
+                    }
+                    m.trace
+                }
+                (Accel::None, _) => tracer.trace_cell_dda(&ray),
+            };
+            st.cells += tr.cells as u64;
+            st.steps += tr.steps as u64;
+            if let Some(hit) = tr.hit {
+                st.hits += 1;
+                let t = hit.t as f32;
+                *px = if t.is_nan() { f32::INFINITY } else { t };
+            }
+        }
+        Ok(st)
+    };
+    let t1 = Instant::now();
+    let run_all = |depth: &mut [f32]| -> Result<Stats, String> {
+        depth
+            .par_chunks_mut(w as usize)
+            .enumerate()
+            .map(|(j, row)| trace_row(j, row))
+            .try_reduce(Stats::default, |x, y| Ok(x.add(y)))
+    };
+    let threads;
+    let stats = match a.threads {
+        Some(n) => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .map_err(|e| CliError(format!("cannot start {n} threads: {e}")))?;
+            threads = n;
+            pool.install(|| run_all(&mut depth))
+        }
+        None => {
+            threads = rayon::current_num_threads();
+            run_all(&mut depth)
+        }
+    }
+    .map_err(CliError)?;
+    let trace_ms = t1.elapsed().as_secs_f64() * 1e3;
+    relief_io::write_raw_f32(&a.out, &depth)?;
+
+    let rays = w as u64 * h as u64;
+    let rays_per_s = rays as f64 / (trace_ms / 1e3).max(1e-9);
+    let method = match a.method {
+        Method::CellDda => "cell-dda",
+        Method::RunDda => "run-dda",
+        Method::Maxmip => "maxmip",
+        Method::March => "march",
+    };
+    let surface = match a.surface {
+        SurfaceArg::Triangles => "triangles",
+        SurfaceArg::Bilinear => "bilinear",
+        SurfaceArg::Plane => "plane",
+        SurfaceArg::Nearest => "nearest",
+    };
+    if a.json {
+        let mut v = serde_json::json!({
+            "width": w,
+            "height": h,
+            "dem_width": dem.width,
+            "dem_height": dem.height,
+            "method": method,
+            "surface": surface,
+            "threads": threads,
+            "rays": rays,
+            "hits": stats.hits,
+            "preprocess_ms": preprocess_ms,
+            "trace_ms": trace_ms,
+            "rays_per_s": rays_per_s,
+            "cells_visited": stats.cells,
+            "steps": stats.steps,
+            "out": a.out.display().to_string(),
+        });
+        if a.method == Method::March {
+            v["samples"] = serde_json::json!(samples);
+            v["march_step_cells_max"] = serde_json::json!(stats.max_step_cells);
+            v["march_bracket_max"] = serde_json::json!(stats.max_bracket);
+        }
+        print_out(&format!("{v}\n"))
+    } else {
+        let mut text = format!(
+            "{out}\n  image    {w} x {h} ({method}, {surface}, {threads} threads)\n  hits     {hits} of {rays} rays\n  cells    {cells} visited\n  time     preprocess {preprocess_ms:.1} ms, trace {trace_ms:.1} ms ({rps:.0} rays/s)\n",
+            out = a.out.display(),
+            hits = stats.hits,
+            cells = stats.cells,
+            rps = rays_per_s,
+        );
+        if a.method == Method::March {
+            text.push_str(&format!(
+                "  march    {samples} samples, step up to {:.3} cells (thinner features can be missed), bracket up to {:.3e}\n",
+                stats.max_step_cells, stats.max_bracket
+            ));
+        }
+        print_out(&text)
+    }
+}
