@@ -2,4 +2,5 @@
 
 pub mod info;
 pub mod rbf;
+pub mod report;
 pub mod trace;
