@@ -142,7 +142,7 @@ impl Stats {
 enum Accel<'a> {
     None,
     Run(RunAccel<'a>),
-    Mip(MaxMip<'a>),
+    Mip(Box<MaxMip<'a>>),
 }
 
 /// Runs `relief trace`.
@@ -176,7 +176,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
     buf.resize(len, 0.0);
     let accel = match a.method {
         Method::RunDda => Accel::Run(RunAccel::build(&hf, &mut buf)?),
-        Method::Maxmip => Accel::Mip(MaxMip::build(&hf, &mut buf)?),
+        Method::Maxmip => Accel::Mip(Box::new(MaxMip::build(&hf, &mut buf)?)),
         _ => Accel::None,
     };
     let preprocess_ms = t0.elapsed().as_secs_f64() * 1e3;
