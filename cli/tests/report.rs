@@ -167,3 +167,54 @@ fn report_html_loads_every_figure_in_headless_chromium() {
         dom.lines().find(|l| l.contains("<body")).unwrap_or("")
     );
 }
+
+/// Every file in `dir` with its bytes.
+fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn killed_report_leaves_the_previous_one_intact() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    run_report(&out);
+    let before = snapshot(&out);
+    assert!(before.iter().any(|(n, _)| n == "index.html"));
+    // A longer run (the bundled DEM's quick crop), killed while it works.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_relief"))
+        .args(["report", "--quick", "--dem"])
+        .arg(repo().join("data/puget_sound_1k.png"))
+        .args(["--z-scale", "0.1", "--dx", "160", "--dy", "160", "--out"])
+        .arg(&out)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(400));
+    assert!(
+        child.try_wait().unwrap().is_none(),
+        "the run finished before it could be killed"
+    );
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert_eq!(snapshot(&out), before, "the previous report changed");
+    // The next run cleans up what the killed one left and replaces the report whole.
+    run_report(&out);
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".partial-") || n.contains(".old-"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}

@@ -136,10 +136,12 @@ pub fn run(a: &ReportArgs) -> CliResult {
     let t_all = Instant::now();
     let (full, path) = load(a)?;
     let dem = if a.quick { crop(&full, 257) } else { full };
-    std::fs::create_dir_all(&a.out).map_err(|e| CliError(format!("{}: {e}", a.out.display())))?;
+    // Everything is written into a fresh sibling folder and swapped in at the end, so a failed
+    // or interrupted run never leaves a half-written report and never touches the previous one.
+    let staging = Staging::new(&a.out)?;
     let ctx = Ctx {
         dem: &dem,
-        out: &a.out,
+        out: &staging.dir,
         quick: a.quick,
     };
     type SectionFn = fn(&Ctx<'_>) -> CliResult<Section>;
@@ -196,12 +198,13 @@ pub fn run(a: &ReportArgs) -> CliResult {
     let html = render::html(&title, &preface, &done);
     let json = render::json(meta, &done);
     let write = |name: &str, text: &str| -> CliResult {
-        relief_io::write_atomic(&a.out.join(name), |w| w.write_all(text.as_bytes()))?;
+        relief_io::write_atomic(&staging.dir.join(name), |w| w.write_all(text.as_bytes()))?;
         Ok(())
     };
     write("report.md", &md)?;
     write("report.json", &format!("{json:#}\n"))?;
     write("index.html", &html)?;
+    staging.commit()?;
 
     let mut summary = format!("relief report -> {}\n", a.out.join("index.html").display());
     for s in &done {
@@ -215,4 +218,84 @@ pub fn run(a: &ReportArgs) -> CliResult {
         t_all.elapsed().as_secs_f64()
     ));
     print_out(&summary)
+}
+
+/// A report folder under construction: `<out>.partial-<pid>` beside `out`, moved into place by
+/// [`Staging::commit`] and removed if dropped uncommitted (a failed run). A run killed outright
+/// leaves only the `.partial-` folder, which the next run removes.
+struct Staging {
+    dir: PathBuf,
+    out: PathBuf,
+    committed: bool,
+}
+
+impl Staging {
+    fn new(out: &Path) -> CliResult<Staging> {
+        let err = |p: &Path, e: std::io::Error| CliError(format!("{}: {e}", p.display()));
+        let name = out
+            .file_name()
+            .ok_or_else(|| CliError(format!("{}: not a folder name", out.display())))?
+            .to_string_lossy()
+            .into_owned();
+        let parent = match out.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        std::fs::create_dir_all(&parent).map_err(|e| err(&parent, e))?;
+        if out.exists() && !out.is_dir() {
+            return Err(CliError(format!(
+                "{}: exists and is not a folder",
+                out.display()
+            )));
+        }
+        // Leftovers of killed runs.
+        if let Ok(entries) = std::fs::read_dir(&parent) {
+            for e in entries.flatten() {
+                let n = e.file_name().to_string_lossy().into_owned();
+                if n.starts_with(&format!(".{name}.partial-"))
+                    || n.starts_with(&format!(".{name}.old-"))
+                {
+                    let _ = std::fs::remove_dir_all(e.path());
+                }
+            }
+        }
+        let dir = parent.join(format!(".{name}.partial-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).map_err(|e| err(&dir, e))?;
+        Ok(Staging {
+            dir,
+            out: out.to_path_buf(),
+            committed: false,
+        })
+    }
+
+    /// Moves the finished report into place, replacing the previous one.
+    fn commit(mut self) -> CliResult {
+        let err = |p: &Path, e: std::io::Error| CliError(format!("{}: {e}", p.display()));
+        let old = self.dir.with_file_name(format!(
+            ".{}.old-{}",
+            self.out
+                .file_name()
+                .map_or_else(String::new, |n| n.to_string_lossy().into_owned()),
+            std::process::id()
+        ));
+        if self.out.exists() {
+            std::fs::rename(&self.out, &old).map_err(|e| err(&self.out, e))?;
+        }
+        if let Err(e) = std::fs::rename(&self.dir, &self.out) {
+            // Put the previous report back.
+            let _ = std::fs::rename(&old, &self.out);
+            return Err(err(&self.out, e));
+        }
+        self.committed = true;
+        let _ = std::fs::remove_dir_all(&old);
+        Ok(())
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_dir_all(&self.dir);
+        }
+    }
 }
