@@ -1,15 +1,15 @@
 //! Greedy-insertion Delaunay TIN.
 //!
-//! Implements algorithm III ("greedy insertion with Delaunay triangulation, only the changed
-//! triangles rescanned, candidates kept in a heap") of Garland & Heckbert, *Fast polygonal
-//! approximation of terrains and height fields*, CMU-CS-95-181 (1995), sections 4 and 5, on
+//! Implements the optimised greedy insertion of Garland & Heckbert, *Fast polygonal approximation
+//! of terrains and height fields*, CMU-CS-95-181 (1995), in its Delaunay variant (only the
+//! triangles an insertion changed are rescanned; per-triangle candidates are kept in a heap), on
 //! spade's incremental [`DelaunayTriangulation`]:
 //!
 //! 1. Triangulate the four corners of the domain (so the mesh covers exactly the domain).
 //! 2. For every triangle, scan the grid samples it covers (exact integer rasterisation) and keep
-//!    its *candidate*: the sample with the largest vertical error `|h - plane|`. Candidates live
-//!    in a max-heap; an entry carries the generation of its face and is ignored when popped if
-//!    the face has been rescanned since (lazy invalidation).
+//!    its *candidate*: the sample with the largest vertical error `|h - plane|`. Faces whose
+//!    candidate is above the target live in an indexed max-heap keyed by that error; a rescanned
+//!    face has its key changed in place (or leaves the heap), so no entry is ever stale.
 //! 3. Pop the worst candidate, insert it into the triangulation, and rescan only the faces
 //!    incident to the new vertex: Delaunay insertion (split, then Lawson flips) changes no other
 //!    face, since every flip it makes creates an edge from the new vertex.
@@ -21,15 +21,20 @@
 //! worst remaining candidate *is* the mesh's measured error, bit for bit equal to what
 //! [`mesh_error`](crate::mesh_error) reports.
 
+use crate::heap::FaceHeap;
 use crate::scan::{for_each_span, local_heights, Plane};
 use crate::MeshError;
 use relief_core::{Error, Terrain};
 use spade::handles::{FixedFaceHandle, FixedVertexHandle, InnerTag};
-use spade::{DelaunayTriangulation, HierarchyHintGenerator, Point2, Triangulation};
-use std::cmp::Ordering;
-use std::collections::BinaryHeap;
+use spade::{DelaunayTriangulation, LastUsedVertexHintGenerator, Point2, Triangulation};
 
-type Dt = DelaunayTriangulation<Point2<f64>, (), (), (), HierarchyHintGenerator<f64>>;
+/// Grid coordinates are stored as `f32` (exact up to 2^24; half the memory traffic of `f64` in
+/// spade's point location). Every insertion passes an explicit hint, a corner of the face holding
+/// the sample, so spade's hierarchy hint generator would cost upkeep without shortening a walk.
+type Dt = DelaunayTriangulation<Point2<f32>, (), (), (), LastUsedVertexHintGenerator>;
+
+/// Largest grid side: `f32` holds every integer coordinate up to `2^24` exactly.
+const MAX_SIDE: u32 = (1 << 24) + 1;
 
 /// Options of [`Tin::build`]: the error to reach and the budgets not to exceed.
 ///
@@ -183,37 +188,16 @@ pub struct Tin {
     stop: StopReason,
 }
 
-/// A heap entry: the candidate of one face at one generation.
-#[derive(Debug, Clone, Copy)]
-struct Entry {
+/// The current candidate of a face.
+#[derive(Debug, Clone, Copy, Default)]
+struct Candidate {
+    /// Largest vertical error over the samples the face covers (0 if it covers only corners).
     err: f64,
-    face: u32,
-    generation: u32,
-    /// A vertex of the face: where spade's point location starts walking.
-    hint: u32,
+    /// The sample where it is reached.
     x: u32,
     y: u32,
-}
-
-impl PartialEq for Entry {
-    fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == Ordering::Equal
-    }
-}
-impl Eq for Entry {}
-impl PartialOrd for Entry {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Ord for Entry {
-    fn cmp(&self, other: &Self) -> Ordering {
-        // Largest error first; among equal errors the lower face index (deterministic).
-        self.err
-            .total_cmp(&other.err)
-            .then_with(|| other.face.cmp(&self.face))
-            .then_with(|| other.generation.cmp(&self.generation))
-    }
+    /// A vertex of the face: where spade's point location starts walking.
+    hint: u32,
 }
 
 /// Worst sample of a triangle: `(error, x, y)`; error 0 and the first corner when the triangle
@@ -236,19 +220,26 @@ fn scan_triangle(heights: &[f32], width: usize, c: [(i64, i64); 3]) -> (f64, u32
     };
     let mut best_err = 0.0f64;
     let (mut bx, mut by) = (c[0].0, c[0].1);
-    for_each_span(c[0], c[1], c[2], |y, lo, hi| {
+    for_each_span(c[0], c[1], c[2], |y, mut lo, mut hi| {
+        // A corner on this row is an end of the row's span (a corner of a convex polygon is
+        // never inside one of its chords): trim the corners off instead of testing each sample.
+        if c.contains(&(lo, y)) {
+            lo += 1;
+        }
+        if hi >= lo && c.contains(&(hi, y)) {
+            hi -= 1;
+        }
+        if hi < lo {
+            return;
+        }
         let base = y as usize * width;
         let Some(row) = heights.get(base + lo as usize..=base + hi as usize) else {
             return;
         };
-        let r = plane.row(y);
-        for (x, &h) in (lo..).zip(row) {
-            let d = (f64::from(h) - plane.at_row(x, r)).abs();
-            if d > best_err && !c.contains(&(x, y)) {
-                best_err = d;
-                bx = x;
-                by = y;
-            }
+        if let Some((d, i)) = plane.row_max(row, lo, plane.row(y), best_err) {
+            best_err = d;
+            bx = lo + i as i64;
+            by = y;
         }
     });
     if best_err > 0.0 {
@@ -261,63 +252,75 @@ fn scan_triangle(heights: &[f32], width: usize, c: [(i64, i64); 3]) -> (f64, u32
 struct Builder<'h> {
     heights: &'h [f32],
     width: usize,
+    /// Candidates with an error above this go into the heap; the others can never be picked.
+    limit: f64,
     dt: Dt,
-    generation: Vec<u32>,
-    heap: BinaryHeap<Entry>,
+    /// Current candidate of each face, indexed by spade's face index.
+    faces: Vec<Candidate>,
+    /// Faces whose candidate is above `limit`, by error.
+    heap: FaceHeap,
+    /// Faces around a new vertex (reused buffer).
+    ring: Vec<FixedFaceHandle<InnerTag>>,
 }
 
 impl Builder<'_> {
     fn scan_face(&mut self, face: FixedFaceHandle<InnerTag>) {
         let f = self.dt.face(face);
-        let c = f.positions().map(|p| (p.x as i64, p.y as i64));
-        let hint = f.adjacent_edge().from().fix().index() as u32;
-        let (err, x, y) = scan_triangle(self.heights, self.width, c);
-        let i = face.index();
-        if self.generation.len() <= i {
-            self.generation.resize(i + 1, 0);
-        }
-        let Some(g) = self.generation.get_mut(i) else {
-            return;
-        };
-        *g = g.wrapping_add(1);
-        self.heap.push(Entry {
-            err,
-            face: i as u32,
-            generation: *g,
-            hint,
-            x,
-            y,
+        let vs = f.vertices();
+        let c = vs.map(|v| {
+            let p = v.position();
+            (p.x as i64, p.y as i64)
         });
+        let (err, x, y) = scan_triangle(self.heights, self.width, c);
+        // Start spade's point location at the corner nearest the candidate: its walk then
+        // ends after one look at that vertex's neighbours.
+        let d2 = |k: usize| {
+            let (dx, dy) = (c[k].0 - i64::from(x), c[k].1 - i64::from(y));
+            dx * dx + dy * dy
+        };
+        let k = (0..3).min_by_key(|&k| d2(k)).unwrap_or(0);
+        let hint = vs[k].fix().index() as u32;
+        let i = face.index();
+        if self.faces.len() <= i {
+            self.faces.resize(i + 1, Candidate::default());
+        }
+        if let Some(cand) = self.faces.get_mut(i) {
+            *cand = Candidate { err, x, y, hint };
+        }
+        if err > self.limit {
+            self.heap.set(i as u32, err);
+        } else {
+            self.heap.remove(i as u32);
+        }
     }
 
-    fn is_current(&self, e: &Entry) -> bool {
-        self.generation.get(e.face as usize) == Some(&e.generation)
-    }
-
-    /// Inserts sample `(x, y)` (walking from vertex `hint`); rescans the faces around the new vertex. Returns
-    /// false if the triangulation did not gain a vertex (cannot happen for a candidate, which is
-    /// never an existing vertex; checked so the loop always progresses).
+    /// Inserts sample `(x, y)` (walking from vertex `hint`); rescans the faces around the new
+    /// vertex. Returns false if the triangulation did not gain a vertex (cannot happen for a
+    /// candidate, which is never an existing vertex; checked so the loop always progresses).
     fn insert(&mut self, hint: u32, x: u32, y: u32) -> bool {
         let before = self.dt.num_vertices();
         let hint = FixedVertexHandle::from_index(hint as usize);
         let Ok(v) = self
             .dt
-            .insert_with_hint(Point2::new(f64::from(x), f64::from(y)), hint)
+            .insert_with_hint(Point2::new(x as f32, y as f32), hint)
         else {
             return false;
         };
         if self.dt.num_vertices() != before + 1 {
             return false;
         }
-        let faces: Vec<FixedFaceHandle<InnerTag>> = self
-            .dt
-            .vertex(v)
-            .out_edges()
-            .filter_map(|e| e.face().as_inner().map(|f| f.fix()))
-            .collect();
-        for f in faces {
+        let mut ring = std::mem::take(&mut self.ring);
+        ring.clear();
+        ring.extend(
+            self.dt
+                .vertex(v)
+                .out_edges()
+                .filter_map(|e| e.face().as_inner().map(|f| f.fix())),
+        );
+        for &f in &ring {
             self.scan_face(f);
         }
+        self.ring = ring;
         true
     }
 }
@@ -329,7 +332,7 @@ impl Tin {
     /// Works on any [`Terrain`] (a [`Heightfield`](relief_core::Heightfield) or a
     /// [`Composed`](relief_core::Composed) surface) of any size. Errors:
     /// [`Error::InvalidParameter`] from [`TinOptions::validate`], [`Error::SizeOverflow`] when the
-    /// grid has more than `u32::MAX` samples.
+    /// grid has more than `u32::MAX` samples or a side longer than `2^24 + 1`.
     ///
     /// ```
     /// use relief_core::{Error, Heightfield};
@@ -345,18 +348,21 @@ impl Tin {
     pub fn build<T: Terrain + ?Sized>(terrain: &T, options: &TinOptions) -> Result<Tin, Error> {
         options.validate()?;
         let (w, h) = (terrain.width(), terrain.height());
-        if u64::from(w) * u64::from(h) > u64::from(u32::MAX) {
+        if u64::from(w) * u64::from(h) > u64::from(u32::MAX) || w > MAX_SIDE || h > MAX_SIDE {
             return Err(Error::SizeOverflow);
         }
         let heights = local_heights(terrain)?;
+        let limit = f64::from(options.max_error);
         let mut b = Builder {
             heights: &heights,
             width: w as usize,
+            limit,
             dt: Dt::new(),
-            generation: Vec::new(),
-            heap: BinaryHeap::new(),
+            faces: Vec::new(),
+            heap: FaceHeap::default(),
+            ring: Vec::new(),
         };
-        let (x1, y1) = (f64::from(w - 1), f64::from(h - 1));
+        let (x1, y1) = ((w - 1) as f32, (h - 1) as f32);
         for p in [(0.0, 0.0), (x1, 0.0), (x1, y1), (0.0, y1)] {
             b.dt.insert(Point2::new(p.0, p.1))
                 .map_err(|_| Error::SizeOverflow)?;
@@ -365,35 +371,36 @@ impl Tin {
         for f in faces {
             b.scan_face(f);
         }
-        let limit = f64::from(options.max_error);
-        let mut max_error = 0.0;
+        let mut max_error = None;
         let mut stop = StopReason::ErrorReached;
-        // Each pass pops one entry: either a stale one, or a current one whose sample becomes a
-        // new vertex. Vertices are distinct grid samples and every insertion pushes a bounded
-        // number of entries, so the loop ends.
-        while let Some(top) = b.heap.peek().copied() {
-            if !b.is_current(&top) {
-                b.heap.pop();
-                continue;
-            }
-            max_error = top.err;
-            if top.err <= limit {
-                break;
-            }
+        // Each pass pops the worst face and inserts its candidate, a grid sample that is not yet
+        // a vertex: at most `width * height` passes.
+        while let Some((err, face)) = b.heap.peek() {
             if b.dt.num_vertices() >= options.max_vertices as usize {
                 stop = StopReason::VertexBudget;
+                max_error = Some(err);
                 break;
             }
             if b.dt.num_inner_faces() + 2 > options.max_triangles as usize {
                 stop = StopReason::TriangleBudget;
+                max_error = Some(err);
                 break;
             }
             b.heap.pop();
-            if !b.insert(top.hint, top.x, top.y) {
-                // Unreachable for a valid triangulation; drop the candidate rather than loop.
+            let Some(cand) = b.faces.get(face as usize).copied() else {
                 continue;
-            }
+            };
+            // A failed insertion is unreachable for a valid triangulation; the face has left
+            // the heap, so the loop still progresses.
+            b.insert(cand.hint, cand.x, cand.y);
         }
+        // Stopped on error: every face's candidate is within the limit; the worst one is the
+        // mesh error.
+        let max_error = max_error.unwrap_or_else(|| {
+            b.dt.fixed_inner_faces()
+                .filter_map(|f| b.faces.get(f.index()))
+                .fold(0.0, |m: f64, c| m.max(c.err))
+        });
         let vertices =
             b.dt.vertices()
                 .map(|v| {

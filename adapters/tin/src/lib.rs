@@ -10,6 +10,28 @@
 //! the triangles an insertion changed, with per-triangle candidates in a heap (the same algorithm
 //! as `fogleman/hmm`, `mapbox/delatin` and `pydelatin`). See [`Tin::build`].
 //!
+//! ## Algorithm
+//! Implements the optimised greedy insertion of Garland & Heckbert, *Fast polygonal approximation
+//! of terrains and height fields*, CMU-CS-95-181 (1995), in its Delaunay variant (only the
+//! triangles an insertion changed are rescanned; per-triangle candidates are kept in a heap), on
+//! spade's incremental `DelaunayTriangulation`:
+//!
+//! 1. Triangulate the four corners of the domain (so the mesh covers exactly the domain).
+//! 2. For every triangle, scan the grid samples it covers (exact integer rasterisation) and keep
+//!    its *candidate*: the sample with the largest vertical error `|h - plane|`. Faces whose
+//!    candidate is above the target live in an indexed max-heap keyed by that error; a rescanned
+//!    face has its key changed in place (or leaves the heap), so no entry is ever stale.
+//! 3. Pop the worst candidate, insert it into the triangulation, and rescan only the faces
+//!    incident to the new vertex: Delaunay insertion (split, then Lawson flips) changes no other
+//!    face, since every flip it makes creates an edge from the new vertex.
+//! 4. Stop when the worst candidate's error is at most the requested error, or before a vertex or
+//!    triangle budget would be exceeded.
+//!
+//! The error a candidate carries is the mesh vertical error of CONVENTIONS.md at that sample, in
+//! world z units (`z_scale` applied; `z_offset` cancels), so when the build stops on error the
+//! worst remaining candidate *is* the mesh's measured error, bit for bit equal to what
+//! [`mesh_error`](crate::mesh_error) reports.
+//!
 //! ## Conventions (CONVENTIONS.md of the project)
 //! - Vertices are grid samples `[x, y]` (column, row); world positions are
 //!   `(x * dx, y * dy, h * z_scale + z_offset)` ([`Tin::positions`]).
@@ -33,6 +55,7 @@
 #![forbid(unsafe_code)]
 
 mod greedy;
+mod heap;
 mod scan;
 
 pub use greedy::{StopReason, Tin, TinOptions};

@@ -48,6 +48,41 @@ impl Plane {
         self.gy * (y - self.y0) as f64
     }
 
+    /// The largest `|h - plane|` over one row span, if it exceeds `above`, with the index in
+    /// `row` of its first occurrence. `row` holds the heights of samples `lo, lo+1, ...` of the
+    /// row whose term is `r` ([`Plane::row`]). Gives bit-identical values to [`Plane::at_row`]:
+    /// `start + i` is the exact integer `x - x0`.
+    #[inline]
+    pub(crate) fn row_max(&self, row: &[f32], lo: i64, r: f64, above: f64) -> Option<(f64, usize)> {
+        let start = (lo - self.x0) as f64;
+        let err =
+            |i: usize, h: f32| (f64::from(h) - (self.z0 + self.gx * (start + i as f64) + r)).abs();
+        // Pass 1: the maximum, four independent lanes so the loop vectorises.
+        let mut lanes = [0.0f64; 4];
+        let chunks = row.chunks_exact(4);
+        let tail = chunks.remainder();
+        for (k, ch) in chunks.enumerate() {
+            for (j, (&h, m)) in ch.iter().zip(lanes.iter_mut()).enumerate() {
+                let d = err(4 * k + j, h);
+                *m = if d > *m { d } else { *m };
+            }
+        }
+        let mut max = lanes[0].max(lanes[1]).max(lanes[2].max(lanes[3]));
+        let t0 = row.len() - tail.len();
+        for (j, &h) in tail.iter().enumerate() {
+            let d = err(t0 + j, h);
+            max = if d > max { d } else { max };
+        }
+        if max <= above {
+            return None;
+        }
+        // Pass 2 (rare): where it is first reached.
+        row.iter()
+            .enumerate()
+            .position(|(i, &h)| err(i, h) == max)
+            .map(|i| (max, i))
+    }
+
     /// Height over `(x, y)` given the row term of `y`: `z0 + gx (x - x0) + gy (y - y0)`.
     #[inline(always)]
     pub(crate) fn at_row(&self, x: i64, row: f64) -> f64 {
