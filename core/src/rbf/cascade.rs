@@ -221,8 +221,8 @@ impl Cascade {
     pub fn texel_center(&self, i: u32, j: u32) -> Vec2 {
         let d = f64::from(self.spacing);
         Vec2::new(
-            ((self.origin[0] + i64::from(i)) as f64 * d) as f32,
-            ((self.origin[1] + i64::from(j)) as f64 * d) as f32,
+            (self.origin[0].saturating_add(i64::from(i)) as f64 * d) as f32,
+            (self.origin[1].saturating_add(i64::from(j)) as f64 * d) as f32,
         )
     }
 
@@ -299,7 +299,10 @@ impl Cascade {
     /// ```
     pub fn mask(&self, mask: &mut [u8]) -> Result<usize, Error> {
         let t = self.resolution as usize;
-        let n = t * t;
+        let n = t.checked_mul(t).ok_or(Error::SizeOverflow)?;
+        if t == 0 {
+            return Ok(0);
+        }
         let actual = mask.len();
         let mask = mask
             .get_mut(..n)
@@ -553,7 +556,10 @@ fn snap(bl: DVec2, bh: DVec2, t: u32, previous: Option<f32>) -> (f32, [i64; 2]) 
     let extent = (bh - bl).max_element().max(0.0);
     let guess = libm::ceil(libm::log2(extent / f64::from(t - 1)));
     let start = if guess.is_finite() {
-        (guess as i32 - 1).clamp(SPACING_EXP.0, SPACING_EXP.1)
+        (guess as i32)
+            .saturating_sub(1)
+            .max(SPACING_EXP.0)
+            .min(SPACING_EXP.1)
     } else {
         SPACING_EXP.0
     };
@@ -630,7 +636,7 @@ fn visible_hull(
         *p = eye + d * (f + sx * a * s * r + sy * s * u);
     }
     // Inward planes (n, c) with n . p + c >= 0 inside.
-    let dir = |k: usize| fc[k | 4] - eye;
+    let dir = |k: usize| fc.get(k | 4).copied().unwrap_or(eye) - eye;
     let side = |k0: usize, k1: usize| {
         let mut n = dir(k0).cross(dir(k1)).normalize_or_zero();
         if n.dot(f) < 0.0 {
@@ -671,7 +677,9 @@ fn visible_hull(
         }
     }
     for &(i, j) in &EDGES {
-        let (p, q) = (bc[i], bc[j]);
+        let (Some(&p), Some(&q)) = (bc.get(i), bc.get(j)) else {
+            continue;
+        };
         for (n, c) in &planes {
             let (dp, dq) = (n.dot(p) + c, n.dot(q) + c);
             if (dp < 0.0) != (dq < 0.0) && dp != dq {
@@ -683,10 +691,18 @@ fn visible_hull(
         }
     }
     for &(i, j) in &EDGES {
-        let (p, q) = (fc[i], fc[j]);
-        for axis in 0..3 {
-            for bound in [lo[axis], hi[axis]] {
-                let (dp, dq) = (p[axis] - bound, q[axis] - bound);
+        let (Some(&p), Some(&q)) = (fc.get(i), fc.get(j)) else {
+            continue;
+        };
+        let (pa, qa) = (p.to_array(), q.to_array());
+        let axes = lo
+            .to_array()
+            .into_iter()
+            .zip(hi.to_array())
+            .zip(pa.into_iter().zip(qa));
+        for ((l, h), (pc, qc)) in axes {
+            for bound in [l, h] {
+                let (dp, dq) = (pc - bound, qc - bound);
                 if (dp < 0.0) != (dq < 0.0) && dp != dq {
                     let x = p + (q - p) * (dp / (dp - dq));
                     if in_box(x) {
@@ -703,7 +719,22 @@ fn visible_hull(
 /// Andrew's monotone chain: counter-clockwise hull without collinear points (cross product at
 /// most `eps` counts as collinear). Returns the hull length written to `out`.
 fn convex_hull(pts: &mut [DVec2], eps: f64, out: &mut [DVec2; MAX_CANDIDATES + 1]) -> usize {
-    pts.sort_unstable_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    // Insertion sort by (x, y): at most MAX_CANDIDATES^2 / 2 steps, and unlike the standard
+    // sorts it has no panic path for the compiler to keep.
+    for k in 1..pts.len() {
+        let mut m = k;
+        while m > 0 {
+            let (Some(a), Some(b)) = (pts.get(m - 1), pts.get(m)) else {
+                break;
+            };
+            if a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)).is_gt() {
+                pts.swap(m - 1, m);
+                m -= 1;
+            } else {
+                break;
+            }
+        }
+    }
     if pts.len() < 3 {
         return 0;
     }

@@ -42,7 +42,10 @@ pub fn discretize(
     weights: &mut [f32],
 ) -> Result<usize, Error> {
     let t = cascade.resolution as usize;
-    let n = t * t;
+    let n = t.checked_mul(t).ok_or(Error::SizeOverflow)?;
+    if t == 0 {
+        return Ok(0);
+    }
     let too_small = |actual: usize| Error::BufferTooSmall { needed: n, actual };
     let mask = mask.get(..n).ok_or(too_small(mask.len()))?;
     let values_len = values.len();

@@ -275,7 +275,7 @@ pub fn build_adaptive_grid<T: Terrain + ?Sized>(
                         // Pushed in reverse so the top-left child is popped first.
                         for (dx, dy) in [(q, q), (0, q), (q, 0), (0, 0)] {
                             if let Some(e) = stack.get_mut(top) {
-                                *e = (x + dx, y + dy, q);
+                                *e = (x.saturating_add(dx), y.saturating_add(dy), q);
                                 top += 1;
                             }
                         }
@@ -307,7 +307,8 @@ fn block_stats<T: Terrain + ?Sized>(terrain: &T, x: u32, y: u32, s: u32) -> (f64
         }
     }
     let n = f64::from(s) * f64::from(s);
-    let mean = (sum / n).clamp(lo, hi);
+    // max/min, not clamp: clamp panics on an inverted range.
+    let mean = (sum / n).max(lo).min(hi);
     (mean, (hi - mean).max(mean - lo))
 }
 
@@ -501,8 +502,12 @@ impl<'a> AdaptiveGrid<'a> {
         if p.is_nan() {
             return None;
         }
-        let sx = libm::floorf(p.x + 0.5).clamp(0.0, (self.width - 1) as f32) as u32;
-        let sy = libm::floorf(p.y + 0.5).clamp(0.0, (self.height - 1) as f32) as u32;
+        let sx = libm::floorf(p.x + 0.5)
+            .max(0.0)
+            .min((self.width - 1) as f32) as u32;
+        let sy = libm::floorf(p.y + 0.5)
+            .max(0.0)
+            .min((self.height - 1) as f32) as u32;
         self.cell_at(sx, sy)
     }
 }

@@ -126,10 +126,10 @@ fn for_each_influenced(
     let c = i.center();
     let r = options.radius(i.size) + 0.5;
     let (wm, hm) = ((grid.width() - 1) as f32, (grid.height() - 1) as f32);
-    let x0 = libm::ceilf(c.x - r).clamp(0.0, wm) as u32;
-    let x1 = libm::floorf(c.x + r).clamp(0.0, wm) as u32;
-    let y0 = libm::ceilf(c.y - r).clamp(0.0, hm) as u32;
-    let y1 = libm::floorf(c.y + r).clamp(0.0, hm) as u32;
+    let x0 = libm::ceilf(c.x - r).max(0.0).min(wm) as u32;
+    let x1 = libm::floorf(c.x + r).max(0.0).min(wm) as u32;
+    let y0 = libm::ceilf(c.y - r).max(0.0).min(hm) as u32;
+    let y1 = libm::floorf(c.y + r).max(0.0).min(hm) as u32;
     let cells = grid.cells();
     for y in y0..=y1 {
         let mut x = x0;
@@ -483,7 +483,7 @@ impl<'a> Rbf<'a> {
             self.grid.width() as f32 - 0.5,
             self.grid.height() as f32 - 0.5,
         );
-        p.clamp(Vec2::splat(-0.5), hi)
+        p.max(Vec2::splat(-0.5)).min(hi)
     }
 
     /// The approximation at `p` (sample coordinates; clamped into the domain's area).
@@ -536,7 +536,7 @@ impl<'a> Rbf<'a> {
         }
         let v = v_ref + swv / sw;
         Ok(if v.is_finite() {
-            v.clamp(lo, hi)
+            v.max(lo).min(hi)
         } else {
             nearest
         })
