@@ -2,11 +2,11 @@
 //! functions, and the view-dependent cascades it is discretized into.
 //!
 //! Implements Cornel, Horváth, Waser, *Adaptive Heightfield Rendering with Complex Interpolants
-//! Using Ray Casting* (2022): section 4 (adaptive grid, the truncated Gaussian of eq. 1,
-//! influence sets, the normalised sum of eq. 2) in [`grid`](self) and the weight functions, and
-//! section 3 (cascade fitting with logarithmic splits and texel snapping) in the cascade types,
-//! plus a CPU discretization into the cascade rasters ([`discretize`]), the reference for a GPU
-//! pass.
+//! Using Ray Casting* (2022): section 4 (the adaptive grid [`AdaptiveGrid`], the truncated
+//! Gaussian of eq. 1 [`gaussian_weight`], [`InfluenceSets`], the normalised sum of eq. 2
+//! [`Rbf::eval`]) and section 3 (cascade fitting with logarithmic splits and texel snapping,
+//! [`fit_cascades`]), plus a CPU discretization into the cascade rasters ([`discretize`]), the
+//! reference for a GPU pass.
 //!
 //! Coordinates: cells, influence radii and evaluation points are in *sample coordinates*
 //! (grid units, spacing 1 on both axes; sample `(x, y)` at `(x, y)`). Cascade fitting works in
