@@ -32,6 +32,11 @@
 //! worst remaining candidate *is* the mesh's measured error, bit for bit equal to what
 //! [`mesh_error`](crate::mesh_error) reports.
 //!
+//! ## Comparing methods
+//! [`compare_tin`] and [`compare_method`] build meshes for a list of error targets and measure
+//! each (triangles, measured maximum and RMS error, build time) as [`ComparisonRow`]s; any method
+//! whose vertices are grid samples plugs into [`compare_method`] as a closure.
+//!
 //! ## Conventions (CONVENTIONS.md of the project)
 //! - Vertices are grid samples `[x, y]` (column, row); world positions are
 //!   `(x * dx, y * dy, h * z_scale + z_offset)` ([`Tin::positions`]).
@@ -54,9 +59,11 @@
 #![deny(rustdoc::broken_intra_doc_links)]
 #![forbid(unsafe_code)]
 
+mod compare;
 mod greedy;
 mod heap;
 mod scan;
 
+pub use compare::{compare_method, compare_tin, markdown_table, ComparisonRow, GridMesh};
 pub use greedy::{StopReason, Tin, TinOptions};
 pub use scan::{mesh_error, MeshError};

@@ -455,3 +455,39 @@ fn shared_real_dems_meet_the_error() {
         );
     }
 }
+
+#[test]
+fn comparison_rows_match_the_builds() {
+    let (w, h) = (37u32, 29u32);
+    let s = grid(w, h, |x, y| {
+        ((x as f32 * 0.3).sin() + (y as f32 * 0.2).cos()) * 25.0
+    });
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let es = [20.0f32, 5.0, 1.0, 0.0];
+    let rows = relief_tin::compare_tin(&hf, &es).unwrap();
+    assert_eq!(rows.len(), es.len());
+    for (r, &e) in rows.iter().zip(&es) {
+        let tin = Tin::build(&hf, &TinOptions::default().with_max_error(e)).unwrap();
+        assert_eq!(r.method, "tin");
+        assert_eq!(r.target_error, e);
+        assert_eq!(
+            (r.vertices, r.triangles),
+            (tin.vertices().len(), tin.triangles().len())
+        );
+        assert_eq!(r.max_error, tin.max_error());
+        let (imax, irms) = independent_error(&hf, tin.vertices(), tin.triangles());
+        assert!((r.max_error - imax).abs() <= slack(&hf));
+        assert!((r.rms_error - irms).abs() <= slack(&hf));
+        assert!(r.rms_error <= r.max_error && r.build_ms >= 0.0);
+    }
+    // A method whose mesh leaves a gap is an error, not a row.
+    let gap = relief_tin::compare_method(&hf, "broken", &[1.0], |_| {
+        Ok(relief_tin::GridMesh {
+            vertices: vec![[0, 0], [w - 1, 0], [w - 1, h - 1]],
+            triangles: vec![[0, 1, 2]],
+        })
+    });
+    assert!(matches!(gap, Err(Error::OutOfBounds { .. })));
+    let table = relief_tin::markdown_table(&rows);
+    assert_eq!(table.lines().count(), 2 + rows.len());
+}
