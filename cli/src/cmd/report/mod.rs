@@ -4,6 +4,7 @@
 
 mod model;
 mod plot;
+mod rays;
 mod render;
 mod sections;
 
@@ -148,6 +149,7 @@ pub fn run(a: &ReportArgs) -> CliResult {
     let plan: Vec<(&str, SectionFn)> = vec![
         ("terrain", sections::terrain),
         ("normals", sections::normals),
+        ("rays", rays::rays),
         ("rbf", sections::rbf),
     ];
     let bar = ProgressBar::new(plan.len() as u64);
