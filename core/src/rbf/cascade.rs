@@ -14,17 +14,19 @@
 //! overlap (the two weights sum to one there).
 //!
 //! Snapping: each polygon's bounding box, in sample coordinates, is widened outwards to multiples
-//! of the grid's minimum cell size. The raster's texel spacing `delta` is the smallest power of
-//! two (in grid units, between `2^-16` and `2^20`) for which a `resolution x resolution` raster
-//! whose texel `(0, 0)` sits on the lattice `delta * Z^2` covers the widened box with texel
-//! *centres* on its four corners. Because `delta` is a power of two and every texel centre is an
-//! integer multiple of it, the sample positions lie on one global lattice and a small camera move
-//! shifts the raster by whole texels. When a previous fit is passed in, its spacing is kept
-//! while it still covers the box and is at most twice the smallest spacing that would
-//! (hysteresis), so spacing changes only when the box grows past the raster or shrinks to a
-//! quarter. (Deviation from the paper, which widens the box and scales it into the texture
-//! exactly: quantising the spacing to powers of two trades up to half the texture's resolution
-//! for positions that never drift; see HARD_CASES.md.)
+//! of the grid's minimum cell size. The raster's texel spacing `delta` is a power of two (in grid
+//! units, between `2^-16` and `2^20`), and texel `(0, 0)` sits on the lattice `delta * Z^2`;
+//! the raster's own box has texel *centres* on its four corners and contains the widened box
+//! (whose corners are texel centres too whenever `delta` is at most the minimum cell size).
+//! Because `delta` is a power of two and every texel centre an integer multiple of it, sample
+//! positions lie on one global lattice and a camera move shifts the raster by whole texels. A
+//! fresh fit takes the smallest `delta` that covers the widened box grown by `headroom` of its
+//! extent plus one minimum cell on every side; with the previous frame's fit passed in, its
+//! spacing is kept while it still covers the box and is at most twice the fresh choice
+//! (hysteresis). The spacing then changes only after the box has grown by the headroom or
+//! shrunk to about a quarter, which a sub-texel camera move does not do. (Deviation from the
+//! paper, which scales the widened box into the texture exactly: quantising the spacing trades
+//! up to half the texture's resolution for positions that never drift; see HARD_CASES.md.)
 //!
 //! Visible texels: a texel is visible when its centre lies inside the cascade polygon expanded
 //! by one texel diagonal, so every bilinear patch touching the polygon has all four corners.
@@ -59,7 +61,8 @@ const SPACING_EXP: (i32, i32) = (-16, 20);
 /// Defaults: `resolution = 1024` texels per side, `overlap = 0.05` (far planes of the first two
 /// cascades pushed out by 5 % of their depth), `near = None` (the frustum's near plane at
 /// `far / 1000`; `far` is always the distance along the view to the farthest corner of the
-/// heightfield's bounding box).
+/// heightfield's bounding box), `headroom = 0.125` (a fresh fit leaves 12.5 % of the box's
+/// extent spare on every side).
 ///
 /// ```
 /// use relief_core::rbf::CascadeOptions;
@@ -75,6 +78,9 @@ pub struct CascadeOptions {
     pub overlap: f32,
     /// Near plane distance of the frustum in world units (default `None`: `far / 1000`).
     pub near: Option<f32>,
+    /// Spare room a fresh fit leaves around each cascade box, as a fraction of its extent per
+    /// side, in `[0, 1]` (default 0.125), so that small camera moves do not outgrow the raster.
+    pub headroom: f32,
 }
 
 impl Default for CascadeOptions {
@@ -83,6 +89,7 @@ impl Default for CascadeOptions {
             resolution: 1024,
             overlap: 0.05,
             near: None,
+            headroom: 0.125,
         }
     }
 }
@@ -122,7 +129,24 @@ impl CascadeOptions {
         self
     }
 
+    /// Returns the options with `headroom` (default 0.125).
+    ///
+    /// ```
+    /// assert_eq!(relief_core::rbf::CascadeOptions::default().with_headroom(0.0).headroom, 0.0);
+    /// ```
+    #[must_use]
+    pub fn with_headroom(mut self, headroom: f32) -> Self {
+        self.headroom = headroom;
+        self
+    }
+
     fn validate(&self) -> Result<(), Error> {
+        if !(self.headroom.is_finite() && (0.0..=1.0).contains(&self.headroom)) {
+            return Err(Error::InvalidParameter {
+                name: "headroom",
+                value: self.headroom,
+            });
+        }
         if !(2..=16384).contains(&self.resolution) {
             return Err(Error::InvalidParameter {
                 name: "resolution",
@@ -517,7 +541,13 @@ pub fn fit_cascades(
         bl = (bl / min_cell).floor() * min_cell;
         bh = (bh / min_cell).ceil() * min_cell;
         let prev = previous.and_then(|p| p.cascades.get(k)).map(|p| p.spacing);
-        let (spacing, origin) = snap(bl, bh, options.resolution, prev);
+        let (spacing, origin) = snap(
+            bl,
+            bh,
+            options.resolution,
+            (f64::from(options.headroom), min_cell),
+            prev,
+        );
         c.spacing = spacing;
         c.origin = origin;
     }
@@ -550,9 +580,9 @@ fn fits(bl: DVec2, bh: DVec2, t: u32, d: f64) -> Option<[i64; 2]> {
     (last.x >= bh.x && last.y >= bh.y).then_some([o.x as i64, o.y as i64])
 }
 
-/// Smallest power-of-two spacing whose raster covers the box (or the previous spacing, if it
-/// covers and is at most twice that), and the raster's origin.
-fn snap(bl: DVec2, bh: DVec2, t: u32, previous: Option<f32>) -> (f32, [i64; 2]) {
+/// Smallest power-of-two spacing (within [`SPACING_EXP`]) whose raster covers `[bl, bh]`, and
+/// that raster's origin.
+fn smallest_fit(bl: DVec2, bh: DVec2, t: u32) -> (f64, [i64; 2]) {
     let extent = (bh - bl).max_element().max(0.0);
     let guess = libm::ceil(libm::log2(extent / f64::from(t - 1)));
     let start = if guess.is_finite() {
@@ -572,9 +602,30 @@ fn snap(bl: DVec2, bh: DVec2, t: u32, previous: Option<f32>) -> (f32, [i64; 2]) 
             break;
         }
     }
+    best
+}
+
+/// The spacing and origin of a cascade raster for the widened box `[bl, bh]`.
+///
+/// A fresh fit takes the smallest power of two that covers the box grown by `headroom` of its
+/// extent plus one minimum cell on every side. A previous spacing is kept while it covers the
+/// box itself and is at most twice the fresh choice, so the spacing changes only after the box
+/// has grown by the headroom or shrunk to about a quarter.
+fn snap(
+    bl: DVec2,
+    bh: DVec2,
+    t: u32,
+    (headroom, min_cell): (f64, f64),
+    previous: Option<f32>,
+) -> (f32, [i64; 2]) {
+    // Widening to whole cells makes the box jump by up to one cell per side on a tiny move, so
+    // the spare room is one cell plus the headroom fraction.
+    let grow = DVec2::splat((bh - bl).max_element().max(0.0) * headroom + min_cell);
+    let fresh = smallest_fit(bl - grow, bh + grow, t);
+    let mut best = (fresh.0, fits(bl, bh, t, fresh.0).unwrap_or(fresh.1));
     if let Some(p) = previous {
         let p = f64::from(p);
-        if p >= best.0 && p <= 2.0 * best.0 {
+        if p.is_finite() && p > 0.0 && p <= 2.0 * fresh.0 {
             if let Some(o) = fits(bl, bh, t, p) {
                 best = (p, o);
             }
