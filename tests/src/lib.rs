@@ -1,2 +1,4 @@
 //! Cross-crate tests live in `tests/tests/`.
 #![deny(missing_docs)]
+
+pub mod mesh_check;

@@ -1,0 +1,529 @@
+//! SOAR refinement (relief_core::refine) checked with the crack checker and the full-grid error
+//! scan: random grids, the real DEMs in ../shared/data (skipped with a message when absent), and
+//! the hard cases of HARD_CASES.md ("## Refinement").
+
+use proptest::prelude::*;
+use relief_core::glam::Vec3;
+use relief_core::refine::{
+    coverage_len, hierarchy_len, preprocess, preprocess_compact, preprocess_with, scratch_len,
+    strip_bound, vertical_error, Criterion, Hierarchy, PreprocessOptions, Refiner, View,
+};
+use relief_core::{Camera, Error, Heightfield, Scale, Terrain};
+use relief_io::{read_dem, Format, ReadOptions};
+use relief_tests::mesh_check::{check_mesh, CheckOptions, MeshReport};
+use std::path::{Path, PathBuf};
+
+struct Mesh {
+    v: Vec<[f32; 3]>,
+    t: Vec<[u32; 3]>,
+}
+
+fn refine<T: Terrain>(h: &Hierarchy<'_>, t: &T, c: Criterion) -> Mesh {
+    let r = Refiner::new(h, t, c).unwrap();
+    let mut s = vec![0; scratch_len(t.width(), t.height())];
+    let n = r.count(&mut s).unwrap();
+    let mut v = vec![[0.0; 3]; n.vertices];
+    let mut tr = vec![[0; 3]; n.triangles];
+    assert_eq!(r.triangles(&mut s, &mut v, &mut tr).unwrap(), n);
+    Mesh { v, t: tr }
+}
+
+fn opts<T: Terrain>(t: &T) -> CheckOptions {
+    let s = t.scale();
+    CheckOptions::grid(t.width(), t.height(), s.dx as f64, s.dy as f64)
+}
+
+fn measured<T: Terrain>(t: &T, m: &Mesh) -> f64 {
+    let mut cov = vec![0; coverage_len(t.width(), t.height())];
+    vertical_error(t, &m.v, &m.t, &mut cov).unwrap()
+}
+
+/// View-independent mesh at `e` from both layouts: crack-free, within `e`.
+fn check_vi<T: Terrain>(t: &T, e: f32) -> [MeshReport; 2] {
+    let n = hierarchy_len(t.width(), t.height());
+    let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+    let full = preprocess(t, &mut er, &mut ra).unwrap();
+    let mut ec = vec![0u16; n];
+    let compact = preprocess_compact(t, &mut ec).unwrap();
+    let m = refine(&full, t, Criterion::MaxError(e));
+    let r = check_mesh(&m.v, &m.t, &opts(t)).unwrap_or_else(|s| panic!("E={e}: {s}"));
+    let err = measured(t, &m);
+    assert!(err <= e as f64, "E={e}: measured {err}");
+    // The compact layout: the crack checker is slow on big meshes in debug builds, so it runs on
+    // small ones; the (fast) error scan, which also fails on any gap, runs on all.
+    let mc = refine(&compact, t, Criterion::MaxError(e));
+    let rc = if mc.t.len() < 200_000 {
+        check_mesh(&mc.v, &mc.t, &opts(t)).unwrap_or_else(|s| panic!("compact E={e}: {s}"))
+    } else {
+        MeshReport {
+            used_vertices: mc.v.len(),
+            triangles: mc.t.len(),
+            area: r.area,
+            boundary_edges: 0,
+        }
+    };
+    let errc = measured(t, &mc);
+    assert!(errc <= e as f64, "compact E={e}: measured {errc}");
+    [r, rc]
+}
+
+fn noise(w: u32, h: u32, seed: u64, amp: f32) -> Vec<f32> {
+    let mut s = seed | 1;
+    (0..w * h)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            ((s >> 11) % 10_000) as f32 / 10_000.0 * amp
+        })
+        .collect()
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    #[test]
+    fn random_grids_are_crack_free_and_within_e(
+        w in 2u32..48, h in 2u32..48, seed in 1u64..10_000, amp in 0.0f32..200.0,
+        frac in 0.0f32..0.5, smooth in 0u32..4,
+    ) {
+        let mut s = noise(w, h, seed, amp);
+        // Some smoothing passes make meshes coarse (long edges, border forcing visible).
+        for _ in 0..smooth {
+            let c = s.clone();
+            for y in 0..h as usize {
+                for x in 0..w as usize {
+                    let g = |xx: usize, yy: usize| c[yy.min(h as usize - 1) * w as usize + xx.min(w as usize - 1)];
+                    s[y * w as usize + x] = (g(x, y) + g(x + 1, y) + g(x, y + 1) + g(x.saturating_sub(1), y) + g(x, y.saturating_sub(1))) / 5.0;
+                }
+            }
+        }
+        let hf = Heightfield::with_scale(&s, w, h, Scale::default().with_spacing(2.5, 1.5)).unwrap();
+        check_vi(&hf, frac * amp);
+    }
+}
+
+/// The real DEMs of ../shared/data with their decodings.
+fn real_dems() -> Vec<(String, relief_io::Dem)> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data");
+    let files: [(&str, Option<Format>, f32); 7] = [
+        ("martini_fuji.png", Some(Format::TerrainRgb), 1.0),
+        ("delatin_14-2625-6369.png", Some(Format::TerrainRgb), 1.0),
+        (
+            "pymartini_mapbox_st_helens.png",
+            Some(Format::TerrainRgb),
+            1.0,
+        ),
+        ("pymartini_terrarium.png", Some(Format::Terrarium), 1.0),
+        ("diligent_ps_height_1k.png", Some(Format::Png), 0.1),
+        (
+            "topotoolbox_srtm_bigtujunga30m_utm11.tif",
+            Some(Format::Tiff),
+            1.0,
+        ),
+        ("pysheds_dem.tif", Some(Format::Tiff), 1.0),
+    ];
+    let mut out = Vec::new();
+    for (name, format, zs) in files {
+        let p: PathBuf = dir.join(name);
+        if !p.exists() {
+            eprintln!("skipping {name}: {} not found", p.display());
+            continue;
+        }
+        let mut dem = read_dem(
+            &p,
+            &ReadOptions {
+                format,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        dem.scale = dem.scale.with_z_scale(zs);
+        out.push((name.to_string(), dem));
+    }
+    out
+}
+
+#[test]
+fn real_dems_are_crack_free_and_within_e() {
+    let dems = real_dems();
+    if dems.is_empty() {
+        eprintln!("skipping: no DEMs in ../shared/data");
+    }
+    for (name, dem) in &dems {
+        let hf = dem.heightfield().unwrap();
+        for e in [1.0f32, 5.0, 20.0, 50.0] {
+            let [full, compact] = check_vi(&hf, e);
+            eprintln!(
+                "{name} {}x{} E={e}: {} / {} triangles (full / compact)",
+                dem.width, dem.height, full.triangles, compact.triangles
+            );
+            // The compact errors are rounded up by at most 2^-7: only slightly more triangles.
+            assert!(compact.triangles >= full.triangles);
+            assert!(compact.triangles as f64 <= full.triangles as f64 * 1.1 + 10.0);
+        }
+    }
+}
+
+#[test]
+fn hard_flat_ground_is_two_triangles_at_any_e() {
+    let s = vec![7.0f32; 33 * 33];
+    let hf = Heightfield::new(&s, 33, 33).unwrap();
+    for e in [0.0, 1.0] {
+        let [a, b] = check_vi(&hf, e);
+        assert_eq!((a.triangles, b.triangles), (2, 2));
+    }
+}
+
+#[test]
+fn hard_single_sample_spike() {
+    let mut s = vec![0.0f32; 65 * 65];
+    s[37 * 65 + 21] = 1000.0;
+    let hf = Heightfield::new(&s, 65, 65).unwrap();
+    let [a, _] = check_vi(&hf, 10.0);
+    assert!(a.triangles < 200, "{}", a.triangles); // only around the spike
+    let m = {
+        let n = hierarchy_len(65, 65);
+        let mut ec = vec![0u16; n];
+        let h = preprocess_compact(&hf, &mut ec).unwrap();
+        refine(&h, &hf, Criterion::MaxError(10.0))
+    };
+    assert!(m.v.iter().any(|v| v[2] == 1000.0), "the spike is a vertex");
+}
+
+#[test]
+fn hard_vertical_cliff() {
+    let (w, h) = (50u32, 37u32);
+    let s: Vec<f32> = (0..w * h)
+        .map(|i| if i % w < 23 { 0.0 } else { 500.0 })
+        .collect();
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    for e in [0.0, 0.5, 100.0] {
+        check_vi(&hf, e);
+    }
+}
+
+#[test]
+fn hard_tiny_grids_2x2_and_3x3() {
+    let a = Heightfield::new(&[0.0f32, 5.0, 3.0, 1.0], 2, 2).unwrap();
+    let [r, _] = check_vi(&a, 0.0);
+    assert_eq!(r.triangles, 2);
+    let s = [0.0f32, 1.0, 0.0, 2.0, 9.0, 1.0, 0.0, 3.0, 0.0];
+    let b = Heightfield::new(&s, 3, 3).unwrap();
+    let [r0, _] = check_vi(&b, 0.0);
+    assert_eq!(r0.triangles, 8);
+    let [r1, _] = check_vi(&b, 100.0);
+    assert_eq!(r1.triangles, 2);
+    // 2 x 3 and 3 x 2 (not squares).
+    check_vi(
+        &Heightfield::new(&[1.0f32, 2.0, 3.0, 4.0, 5.0, 7.0], 2, 3).unwrap(),
+        0.0,
+    );
+    check_vi(
+        &Heightfield::new(&[1.0f32, 2.0, 3.0, 4.0, 5.0, 7.0], 3, 2).unwrap(),
+        0.0,
+    );
+}
+
+#[test]
+fn hard_e_zero_is_full_resolution() {
+    let (w, h) = (21u32, 14u32);
+    let s = noise(w, h, 5, 100.0);
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let [r, c] = check_vi(&hf, 0.0);
+    assert_eq!(r.triangles, 2 * 20 * 13);
+    assert_eq!(c.triangles, 2 * 20 * 13);
+}
+
+#[test]
+fn hard_4097_square() {
+    let n = 4097u32;
+    let s: Vec<f32> = (0..n * n)
+        .map(|i| {
+            let (x, y) = ((i % n) as f32, (i / n) as f32);
+            100.0 * (x / 300.0).sin() * (y / 500.0).cos() + 0.002 * x
+        })
+        .collect();
+    let hf = Heightfield::new(&s, n, n).unwrap();
+    let mut ec = vec![0u16; hierarchy_len(n, n)];
+    let h = preprocess_compact(&hf, &mut ec).unwrap();
+    let m = refine(&h, &hf, Criterion::MaxError(1.0));
+    check_mesh(&m.v, &m.t, &opts(&hf)).unwrap();
+    let err = measured(&hf, &m);
+    assert!(err <= 1.0, "{err}");
+    assert!(m.t.len() < 2_000_000, "{}", m.t.len());
+}
+
+fn cam(eye: Vec3, target: Vec3) -> Camera {
+    Camera::new(eye, target, 60.0, 640, 480).unwrap()
+}
+
+/// Every in-frustum sample's vertical error projected at its distance is at most `tau` pixels.
+fn screen_check<T: Terrain>(t: &T, m: &Mesh, c: &Camera, tau: f32) -> usize {
+    let planes = c.frustum_planes(0.1, 1e5).unwrap();
+    let s = t.scale();
+    let (w, h) = (t.width() as usize, t.height() as usize);
+    let mut err = vec![f64::NAN; w * h];
+    for tri in &m.t {
+        let p: Vec<(f64, f64, f64)> = tri
+            .iter()
+            .map(|&i| {
+                let v = m.v[i as usize];
+                (
+                    (v[0] / s.dx).round() as f64,
+                    (v[1] / s.dy).round() as f64,
+                    v[2] as f64,
+                )
+            })
+            .collect();
+        let (x0, x1) = (
+            p.iter().map(|q| q.0).fold(f64::MAX, f64::min),
+            p.iter().map(|q| q.0).fold(f64::MIN, f64::max),
+        );
+        let (y0, y1) = (
+            p.iter().map(|q| q.1).fold(f64::MAX, f64::min),
+            p.iter().map(|q| q.1).fold(f64::MIN, f64::max),
+        );
+        let det = (p[1].0 - p[0].0) * (p[2].1 - p[0].1) - (p[2].0 - p[0].0) * (p[1].1 - p[0].1);
+        for y in y0 as usize..=y1 as usize {
+            for x in x0 as usize..=x1 as usize {
+                let (fx, fy) = (x as f64, y as f64);
+                let l1 =
+                    ((fx - p[0].0) * (p[2].1 - p[0].1) - (p[2].0 - p[0].0) * (fy - p[0].1)) / det;
+                let l2 =
+                    ((p[1].0 - p[0].0) * (fy - p[0].1) - (fx - p[0].0) * (p[1].1 - p[0].1)) / det;
+                let l0 = 1.0 - l1 - l2;
+                if l0 < -1e-9 || l1 < -1e-9 || l2 < -1e-9 {
+                    continue;
+                }
+                let z = l0 * p[0].2 + l1 * p[1].2 + l2 * p[2].2;
+                let e = (t.z(x as u32, y as u32) as f64 - z).abs();
+                let slot = &mut err[y * w + x];
+                if slot.is_nan() || *slot < e {
+                    *slot = e;
+                }
+            }
+        }
+    }
+    let mut checked = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let p = t.position(x as u32, y as u32).unwrap();
+            if !planes[..5].iter().all(|q| q.dot(p.extend(1.0)) >= 0.0) {
+                continue;
+            }
+            let e = err[y * w + x];
+            assert!(!e.is_nan(), "in-view sample ({x}, {y}) is not covered");
+            let d = (p - c.eye).length() as f64;
+            if d == 0.0 {
+                continue;
+            }
+            let px = e * c.kappa() as f64 / d;
+            assert!(
+                px <= tau as f64 + 1e-6 * (1.0 + tau as f64),
+                "({x}, {y}): {px} px > {tau}"
+            );
+            checked += 1;
+        }
+    }
+    checked
+}
+
+struct Vd {
+    s: Vec<f32>,
+    w: u32,
+    h: u32,
+    scale: Scale,
+}
+
+fn vd_terrain() -> Vd {
+    let (w, h) = (129u32, 97u32);
+    let mut s = noise(w, h, 17, 40.0);
+    for (i, v) in s.iter_mut().enumerate() {
+        let (x, y) = ((i as u32 % w) as f32, (i as u32 / w) as f32);
+        *v += 200.0 * (x / 20.0).sin() * (y / 30.0).cos();
+    }
+    Vd {
+        s,
+        w,
+        h,
+        scale: Scale::default().with_spacing(10.0, 10.0),
+    }
+}
+
+fn check_vd(eye: Vec3, target: Vec3, tau: f32) -> usize {
+    let t = vd_terrain();
+    let hf = Heightfield::with_scale(&t.s, t.w, t.h, t.scale).unwrap();
+    let n = hierarchy_len(t.w, t.h);
+    let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+    let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+    let mut ec = vec![0u16; n];
+    let compact = preprocess_compact(&hf, &mut ec).unwrap();
+    let c = cam(eye, target);
+    let mut checked = 0;
+    for h in [&full, &compact] {
+        for (culling, lazy) in [(false, 0), (true, 0), (true, 4)] {
+            let v = View::new(&c, tau)
+                .unwrap()
+                .with_culling(culling)
+                .with_lazy_levels(lazy);
+            let m = refine(h, &hf, Criterion::View(v));
+            let mut o = opts(&hf);
+            o.allow_holes = culling;
+            o.t_junctions = lazy == 0; // lazy culling may leave T-junctions outside the view
+            check_mesh(&m.v, &m.t, &o)
+                .unwrap_or_else(|s| panic!("culling {culling} lazy {lazy}: {s}"));
+            checked += screen_check(&hf, &m, &c, tau);
+        }
+    }
+    checked
+}
+
+#[test]
+fn view_dependent_oblique_view_meets_the_pixel_threshold() {
+    assert!(
+        check_vd(
+            Vec3::new(-200.0, -200.0, 600.0),
+            Vec3::new(600.0, 500.0, 0.0),
+            1.0
+        ) > 1000
+    );
+}
+
+#[test]
+fn hard_view_eye_inside_the_terrain() {
+    // Eye 50 m below the surface in the middle of the grid.
+    check_vd(
+        Vec3::new(640.0, 480.0, -300.0),
+        Vec3::new(1000.0, 700.0, -300.0),
+        2.0,
+    );
+}
+
+#[test]
+fn hard_view_eye_far_above() {
+    let n = check_vd(
+        Vec3::new(640.0, 480.0, 1e5),
+        Vec3::new(10_640.0, 480.0, 0.0),
+        1.0,
+    );
+    assert!(n > 0);
+}
+
+#[test]
+fn hard_view_looking_along_the_ground() {
+    check_vd(
+        Vec3::new(0.0, 480.0, 250.0),
+        Vec3::new(1280.0, 480.0, 250.0),
+        1.0,
+    );
+}
+
+#[test]
+fn hard_view_nan_camera_is_an_error() {
+    assert!(matches!(
+        Camera::new(Vec3::new(f32::NAN, 0.0, 1.0), Vec3::ONE, 60.0, 64, 64),
+        Err(Error::InvalidCamera { .. })
+    ));
+    let c = cam(Vec3::new(0.0, 0.0, 10.0), Vec3::new(5.0, 5.0, 0.0));
+    assert!(View::new(&c, f32::NAN).is_err());
+    let hf = Heightfield::new(&[0.0f32; 9], 3, 3).unwrap();
+    let mut ec = [0u16; 9];
+    let h = preprocess_compact(&hf, &mut ec).unwrap();
+    let v = View::new(&c, 1.0).unwrap().with_near_far(f32::NAN, None);
+    assert!(Refiner::new(&h, &hf, Criterion::View(v)).is_err());
+}
+
+#[test]
+fn hard_buffer_one_element_too_small() {
+    let t = vd_terrain();
+    let hf = Heightfield::with_scale(&t.s, t.w, t.h, t.scale).unwrap();
+    let mut ec = vec![0u16; hierarchy_len(t.w, t.h)];
+    let h = preprocess_compact(&hf, &mut ec).unwrap();
+    let c = cam(
+        Vec3::new(-200.0, -200.0, 600.0),
+        Vec3::new(600.0, 500.0, 0.0),
+    );
+    let r = Refiner::new(&h, &hf, Criterion::View(View::new(&c, 1.0).unwrap())).unwrap();
+    let mut s = vec![0; scratch_len(t.w, t.h)];
+    let n = r.count(&mut s).unwrap();
+    let mut v = vec![[0.0; 3]; n.vertices];
+    let mut tr = vec![[0; 3]; n.triangles - 1];
+    assert_eq!(
+        r.triangles(&mut s, &mut v, &mut tr),
+        Err(Error::BufferTooSmall {
+            needed: n.triangles,
+            actual: n.triangles - 1
+        })
+    );
+    let mut short = vec![0; scratch_len(t.w, t.h) - 1];
+    assert!(matches!(
+        r.count(&mut short),
+        Err(Error::BufferTooSmall { .. })
+    ));
+    let mut e2 = vec![0u16; hierarchy_len(t.w, t.h) - 1];
+    assert!(matches!(
+        preprocess_compact(&hf, &mut e2),
+        Err(Error::BufferTooSmall { .. })
+    ));
+}
+
+/// Seed 004, chapter 5.2: with spheres that only contain their descendants (SOAR 2002), culling
+/// a finest-level vertex can coarsen a triangle that is still partly in view ("pop"); lazy
+/// culling of the finest levels removes it.
+#[test]
+fn lazy_culling_removes_the_culling_pop() {
+    let t = vd_terrain();
+    let hf = Heightfield::with_scale(&t.s, t.w, t.h, t.scale).unwrap();
+    let n = hierarchy_len(t.w, t.h);
+    let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+    let o = PreprocessOptions::default().with_contain_diamond(false);
+    let soar = preprocess_with(&hf, &mut er, &mut ra, o).unwrap();
+    let mut pops = 0;
+    for k in 0..24 {
+        // Cameras sweeping across the terrain, low and close: frustum borders cut fine triangles.
+        let a = k as f32 * 0.26;
+        let eye = Vec3::new(640.0 + 300.0 * a.cos(), 480.0 + 300.0 * a.sin(), 260.0);
+        let target = eye + Vec3::new(-(a + 0.7).sin(), (a + 0.7).cos(), -0.25) * 100.0;
+        let c = cam(eye, target);
+        let strict = View::new(&c, 0.5).unwrap().with_lazy_levels(0);
+        let m = refine(&soar, &hf, Criterion::View(strict));
+        let res = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            screen_check(&hf, &m, &c, 0.5)
+        }));
+        if res.is_err() {
+            pops += 1;
+        }
+        // Lazy culling of the finest 2 levels: never a pop.
+        let lazy = View::new(&c, 0.5).unwrap().with_lazy_levels(2);
+        let m = refine(&soar, &hf, Criterion::View(lazy));
+        screen_check(&hf, &m, &c, 0.5);
+    }
+    assert!(pops > 0, "no culling pop found: the test shows nothing");
+}
+
+#[test]
+fn inout_strip_on_a_real_dem_has_fewer_than_two_indices_per_triangle() {
+    let dems = real_dems();
+    let Some((_, dem)) = dems.iter().find(|(n, _)| n.starts_with("diligent")) else {
+        eprintln!("skipping: diligent_ps_height_1k.png not found");
+        return;
+    };
+    let mut dem = dem.clone();
+    dem.scale = dem.scale.with_spacing(160.0, 160.0);
+    let hf = dem.heightfield().unwrap();
+    let (w, h) = (dem.width, dem.height);
+    let mut ec = vec![0u16; hierarchy_len(w, h)];
+    let hi = preprocess_compact(&hf, &mut ec).unwrap();
+    let r = Refiner::new(&hi, &hf, Criterion::MaxError(5.0)).unwrap();
+    let mut s = vec![0; scratch_len(w, h)];
+    let mut v = vec![[0.0; 3]; hierarchy_len(w, h)];
+    let mut st = vec![0; strip_bound(w, h)];
+    let c = r.inout_strip(&mut s, &mut v, &mut st).unwrap();
+    eprintln!(
+        "in/out strip: {} indices, {} triangles, {:.3} per triangle",
+        c.indices,
+        c.triangles,
+        c.indices_per_triangle()
+    );
+    assert!(c.indices_per_triangle() < 2.0);
+}
