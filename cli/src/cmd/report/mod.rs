@@ -2,6 +2,7 @@
 //! one DEM and writes `index.html` (opens without a server), `report.md`, `report.json` and PNG
 //! figures into the output folder. Every number is measured in the run that writes it.
 
+mod mesh;
 mod model;
 mod plot;
 mod rays;
@@ -149,6 +150,7 @@ pub fn run(a: &ReportArgs) -> CliResult {
     let plan: Vec<(&str, SectionFn)> = vec![
         ("terrain", sections::terrain),
         ("normals", sections::normals),
+        ("mesh", mesh::mesh),
         ("rays", rays::rays),
         ("rbf", sections::rbf),
     ];
