@@ -1,15 +1,195 @@
 //! # relief-wgpu
 //!
-//! GPU passes for relief (wgpu, WGSL under shaders/): ray casting, silhouette partitioning, RBF cascades, normal maps, mesh drawing.
+//! GPU passes for relief on [`wgpu`], with their WGSL in the repository's `shaders/` folder.
+//! Every pass is checked in this crate's tests against the `relief-core` CPU result on the same
+//! input.
 //!
-//! This crate is a placeholder in the workspace layout: it compiles and depends on
-//! `relief-core`, and its functionality is built by a later issue (see the repository's
-//! issue tracker). It exports only the core's version it was built against.
+//! The crate never owns the window or the device: every pass borrows the application's
+//! [`wgpu::Device`] and [`wgpu::Queue`] and only records into the caller's
+//! [`wgpu::CommandEncoder`] (nothing inside a frame waits for the GPU). [`headless`] creates a
+//! device without a window for tests, the `relief` CLI and offline rendering.
 //!
-//! ```
-//! assert_eq!(relief_wgpu::CORE_CRATE, "relief-core");
+//! | pass | module | seed |
+//! |---|---|---|
+//! | heightfield upload, deformations, maximum-mipmap build (compute) | [`terrain`] | 002 (sec. 5), 003 (sec. 3.8) |
+//! | normal map: central, Sobel, composed base + detail (compute) | [`normals`] | 003 (sec. 3.6), 004 (sec. 2.3, 7.3) |
+//! | ray casting: max-mip and march, depth + normal + colour (compute) | [`raycast`] | 002 (sec. 5), 003 (sec. 3.3-3.5) |
+//! | mesh drawing with reversed-Z, depth output (render) | [`mesh`] | 003 (sec. 3.7), 004 (sec. 4.6.3) |
+//! | effects on demand: a [`Scene`] and the passes its frame needs | [`scene`] | 003 (sec. 4, table 1) |
+//!
+//! Conventions are those of `relief-core` (CONVENTIONS.md): camera rays from
+//! [`relief_core::Camera`], depth images as the distance `t` along the unit ray, `+inf` for a
+//! miss. Heights live on the GPU as `f32` *local* heights (`h * z_scale`); the eye is converted to
+//! heightfield-local coordinates in `f64` on the CPU before upload, as the CPU tracer does.
+//!
+//! ```no_run
+//! use relief_core::{Camera, Heightfield, Scale};
+//! use relief_wgpu::{headless, Effect, Renderer, Scene};
+//! use glam::Vec3;
+//! let gpu = headless()?;
+//! let samples: Vec<f32> = (0..64 * 64).map(|i| ((i % 64) as f32 * 0.2).sin() * 4.0).collect();
+//! let hf = Heightfield::with_scale(&samples, 64, 64, Scale::default())?;
+//! let scene = Scene::new().with_effect(Effect::Lighting).with_effect(Effect::Fog);
+//! let mut renderer = Renderer::new(&gpu.device, &gpu.queue, &hf, scene)?;
+//! let cam = Camera::new(Vec3::new(-10.0, -10.0, 30.0), Vec3::new(32.0, 32.0, 0.0), 60.0, 320, 240)?;
+//! let image = renderer.render(&gpu.device, &gpu.queue, &cam)?;
+//! assert_eq!(image.depth.len(), 320 * 240);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 #![deny(missing_docs)]
+#![deny(rustdoc::broken_intra_doc_links)]
+#![forbid(unsafe_code)]
 
-/// Name of the core crate this adapter builds on.
-pub const CORE_CRATE: &str = "relief-core";
+pub mod mesh;
+pub mod normals;
+pub mod raycast;
+pub mod scene;
+pub mod terrain;
+mod util;
+
+pub use mesh::{DepthTarget, MeshPass, ResolvePass};
+pub use normals::NormalPass;
+pub use raycast::{Method, RayCastPass, RayOutputs};
+pub use scene::{Effect, FrameImage, PassName, PassTiming, Renderer, Scene};
+pub use terrain::GpuTerrain;
+pub use util::read_buffer;
+
+/// Everything that can go wrong in this crate.
+///
+/// ```
+/// let e = relief_wgpu::Error::NoAdapter("No suitable graphics adapter found".into());
+/// assert!(e.to_string().starts_with("no GPU adapter"));
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Error {
+    /// No graphics adapter exists (no GPU and no software driver such as Mesa lavapipe): the
+    /// wgpu message.
+    NoAdapter(String),
+    /// The adapter refused to create a device: the wgpu message.
+    Device(String),
+    /// Reading results back from the GPU failed (mapping or polling): the wgpu message.
+    Readback(String),
+    /// The input is not valid for this pass (a relief-core error).
+    Core(relief_core::Error),
+    /// A size or option does not fit the device or the pass: what and why.
+    Unsupported(&'static str),
+}
+
+impl core::fmt::Display for Error {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Error::NoAdapter(m) => write!(f, "no GPU adapter: {m} (install a Vulkan driver, e.g. Mesa lavapipe: mesa-vulkan-drivers)"),
+            Error::Device(m) => write!(f, "GPU device request failed: {m}"),
+            Error::Readback(m) => write!(f, "GPU readback failed: {m}"),
+            Error::Core(e) => write!(f, "{e}"),
+            Error::Unsupported(m) => write!(f, "unsupported: {m}"),
+        }
+    }
+}
+
+impl std::error::Error for Error {}
+
+impl From<relief_core::Error> for Error {
+    fn from(e: relief_core::Error) -> Self {
+        Error::Core(e)
+    }
+}
+
+/// A device and queue created by [`headless`], and the adapter's description.
+///
+/// ```no_run
+/// let gpu = relief_wgpu::headless()?;
+/// println!("{} ({:?})", gpu.info.name, gpu.info.backend);
+/// # Ok::<(), relief_wgpu::Error>(())
+/// ```
+#[derive(Debug)]
+pub struct Gpu {
+    /// The device (borrowed by every pass).
+    pub device: wgpu::Device,
+    /// Its queue.
+    pub queue: wgpu::Queue,
+    /// Name, backend and device type of the adapter.
+    pub info: wgpu::AdapterInfo,
+}
+
+/// Creates a device without a window, for tests, the CLI and offline rendering.
+///
+/// The adapter follows wgpu's environment variables (`WGPU_BACKEND`, `WGPU_ADAPTER_NAME`,
+/// `WGPU_POWER_PREF`, read by [`wgpu::util::initialize_adapter_from_env_or_default`] and
+/// [`wgpu::InstanceDescriptor::new_without_display_handle_from_env`]); on machines without a GPU,
+/// Mesa's lavapipe Vulkan driver works. [`Error::NoAdapter`] when no adapter exists at all.
+/// The device gets the adapter's own limits.
+///
+/// ```no_run
+/// match relief_wgpu::headless() {
+///     Ok(gpu) => println!("using {}", gpu.info.name),
+///     Err(e) => eprintln!("{e}"),
+/// }
+/// ```
+pub fn headless() -> Result<Gpu, Error> {
+    let instance =
+        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
+        &instance, None,
+    ))
+    .map_err(|e| Error::NoAdapter(e.to_string()))?;
+    let info = adapter.get_info();
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("relief-wgpu headless"),
+        required_features: wgpu::Features::empty(),
+        required_limits: adapter.limits(),
+        ..Default::default()
+    }))
+    .map_err(|e| Error::Device(e.to_string()))?;
+    Ok(Gpu {
+        device,
+        queue,
+        info,
+    })
+}
+
+#[cfg(test)]
+mod shader_validation {
+    //! Every WGSL file in `shaders/` parses and validates with naga (no GPU needed), as wgpu's
+    //! `naga/tests/example_wgsl.rs` does.
+
+    fn validate(name: &str, src: &str) {
+        let module = naga::front::wgsl::parse_str(src)
+            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::default(),
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)));
+    }
+
+    #[test]
+    fn every_shader_validates() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders");
+        let mut n = 0;
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_some_and(|e| e == "wgsl") {
+                validate(
+                    &path.display().to_string(),
+                    &std::fs::read_to_string(&path).unwrap(),
+                );
+                n += 1;
+            }
+        }
+        assert!(
+            n >= 5,
+            "expected the pass shaders in {}, found {n}",
+            dir.display()
+        );
+    }
+
+    #[test]
+    fn a_broken_shader_is_rejected() {
+        let bad = "@compute @workgroup_size(8, 8) fn f() { let x: f32 = 1u; }";
+        let parsed = naga::front::wgsl::parse_str(bad);
+        assert!(parsed.is_err());
+    }
+}

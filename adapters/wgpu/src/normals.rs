@@ -1,0 +1,132 @@
+//! Normal map pass (compute, `shaders/normals.wgsl`).
+//!
+//! Normals from finite differences as [`relief_core::normal_map`] computes them: Balogh 2003
+//! (seed 004), section 2.3 (`(-dz/dx, -dz/dy, 1)` normalised, central differences), the Sobel
+//! operator Kentie 2009 (seed 003, section 3.6) uses for smoother shading, and, with a detail
+//! map, the composed base + detail surface of Balogh's section 7.3 (the detail map tiled over the
+//! base and added before differencing, as [`relief_core::Composed`] does when its period is the
+//! detail size). Same border rule as the CPU: a missing neighbour is the sample itself. One
+//! invocation per sample, 8 x 8 workgroups; output `vec4<f32>` per sample (`w = 0`).
+
+use crate::util::{self, bind_buffers, compute_pipeline, groups, storage_entry, uniform_entry};
+use crate::{Error, GpuTerrain};
+use relief_core::NormalMethod;
+
+/// A normal map of a [`GpuTerrain`]'s current heights, optionally with a tiled detail map.
+///
+/// ```no_run
+/// use relief_core::{Heightfield, NormalMethod};
+/// let gpu = relief_wgpu::headless()?;
+/// let hf = Heightfield::new(&[0.0f32, 1.0, 2.0, 0.0, 1.0, 2.0], 3, 2)?;
+/// let t = relief_wgpu::GpuTerrain::new(&gpu.device, &gpu.queue, &hf, false)?;
+/// let pass = relief_wgpu::NormalPass::new(&gpu.device, &gpu.queue, &t, NormalMethod::Central, None)?;
+/// let mut enc = gpu.device.create_command_encoder(&Default::default());
+/// pass.encode(&mut enc);
+/// gpu.queue.submit([enc.finish()]);
+/// let n = pass.read(&gpu.device, &gpu.queue)?;
+/// assert!((n[1][0] + std::f32::consts::FRAC_1_SQRT_2).abs() < 1e-6);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Debug)]
+pub struct NormalPass {
+    width: u32,
+    height: u32,
+    normals: wgpu::Buffer,
+    pipeline: wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+}
+
+impl NormalPass {
+    /// A pass writing the normals of `terrain` with `method`. `detail` is an optional tiled
+    /// detail map `(samples, width, height)` in local height units, added to the base (the
+    /// composed surface). [`Error::Unsupported`] for an empty or mis-sized detail map.
+    pub fn new(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        terrain: &GpuTerrain,
+        method: NormalMethod,
+        detail: Option<(&[f32], u32, u32)>,
+    ) -> Result<NormalPass, Error> {
+        let (w, h) = terrain.size();
+        let s = terrain.scale();
+        let (dw, dh) = match detail {
+            Some((d, dw, dh)) => {
+                if dw == 0 || dh == 0 || d.len() != dw as usize * dh as usize {
+                    return Err(Error::Unsupported(
+                        "detail map size does not match its samples",
+                    ));
+                }
+                (dw, dh)
+            }
+            None => (1, 1),
+        };
+        let detail_buf = match detail {
+            Some((d, _, _)) => util::storage_init(device, "relief detail", bytemuck::cast_slice(d)),
+            None => util::storage(device, "relief detail (unused)", 4),
+        };
+        let normals = util::storage(device, "relief normal map", w as u64 * h as u64 * 16);
+        let params = util::uniform(device, "relief normal params", 32);
+        let p: [u32; 8] = [w, h, dw, dh, s.dx.to_bits(), s.dy.to_bits(), 0, 0];
+        queue.write_buffer(&params, 0, bytemuck::cast_slice(&p));
+        let module =
+            device.create_shader_module(wgpu::include_wgsl!("../../../shaders/normals.wgsl"));
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("relief normals"),
+            entries: &[
+                storage_entry(0, true, cs),
+                storage_entry(1, false, cs),
+                uniform_entry(2, cs),
+                storage_entry(3, true, cs),
+            ],
+        });
+        let sobel = matches!(method, NormalMethod::Sobel);
+        let pipeline = compute_pipeline(
+            device,
+            "relief normals",
+            &layout,
+            &module,
+            "normal_map",
+            &[
+                ("SOBEL", f64::from(u8::from(sobel))),
+                ("DETAIL", f64::from(u8::from(detail.is_some()))),
+            ],
+        );
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("relief normals"),
+            layout: &layout,
+            entries: &bind_buffers(&[terrain.heights(), &normals, &params, &detail_buf]),
+        });
+        Ok(NormalPass {
+            width: w,
+            height: h,
+            normals,
+            pipeline,
+            group,
+        })
+    }
+
+    /// The normal map buffer (`width * height` `vec4<f32>`, row-major).
+    #[must_use]
+    pub fn buffer(&self) -> &wgpu::Buffer {
+        &self.normals
+    }
+
+    /// Records the pass.
+    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("relief normal map"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.group, &[]);
+        pass.dispatch_workgroups(groups(self.width, 8), groups(self.height, 8), 1);
+    }
+
+    /// Reads the normals back (waits for the GPU; for tests and tools).
+    pub fn read(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<[f32; 3]>, Error> {
+        let n = self.width as u64 * self.height as u64 * 16;
+        let v = util::f32s(&util::read_buffer(device, queue, &self.normals, n)?);
+        Ok(v.chunks_exact(4).map(|c| [c[0], c[1], c[2]]).collect())
+    }
+}

@@ -1,0 +1,491 @@
+//! Ray casting pass (compute, `shaders/raycast.wgsl`): depth, normal and colour per pixel.
+//!
+//! One invocation per pixel in 8 x 8 workgroups; the camera is [`relief_core::Camera`]'s
+//! (CONVENTIONS.md), the depth is the distance `t` along the unit ray (`+inf` for a miss), as the
+//! CPU `relief trace` writes it. Two methods, both ported in `f32` from `relief_core::ray` with
+//! the same clipping, in heightfield-local coordinates (the eye converted in `f64` on the CPU):
+//! - [`Method::MaxMip`]: the maximum-mipmap traversal of Tevs, Ihrke and Seidel (2008), which
+//!   Cornel et al. (seed 002, section 5) use per cascade, with the exact `triangles` cell test;
+//! - [`Method::March`]: Kentie's linear + binary search (seed 003, sections 3.3-3.4).
+//!
+//! Effects are WGSL override constants (`LIGHTING`, `SHADOWS`, `DETAIL`, `FOG`, `WATER`) fixed
+//! when the pipeline is created: an effect that is off is compiled out (seed 003, section 4 and
+//! table 1 measure each feature's cost on its own). Shadows are shadow rays towards the sun
+//! traced with the same method; lighting uses the normal map (seed 003, section 3.6).
+
+use crate::util::{self, bind_buffers, compute_pipeline, groups, storage_entry, uniform_entry};
+use crate::{Error, GpuTerrain};
+use glam::Vec3;
+use relief_core::Camera;
+
+/// How rays find the surface.
+///
+/// ```
+/// use relief_wgpu::Method;
+/// assert_ne!(Method::MaxMip, Method::march());
+/// assert_eq!(Method::march(), Method::March { samples: 256, refine: 8 });
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Method {
+    /// Maximum-mipmap traversal, exact (equal to the CPU cell DDA up to `f32` rounding).
+    MaxMip,
+    /// Linear search with `samples` samples, then `refine` binary steps (approximate).
+    March {
+        /// Samples along the clipped ray (at least 1).
+        samples: u32,
+        /// Binary refinement steps (at most 64).
+        refine: u32,
+    },
+}
+
+impl Method {
+    /// The march with [`relief_core::ray::MarchOptions`]' defaults (256 samples, 8 steps).
+    ///
+    /// ```
+    /// assert!(matches!(relief_wgpu::Method::march(), relief_wgpu::Method::March { .. }));
+    /// ```
+    #[must_use]
+    pub fn march() -> Method {
+        let o = relief_core::ray::MarchOptions::default();
+        Method::March {
+            samples: o.samples,
+            refine: o.refine,
+        }
+    }
+}
+
+/// Which effects the ray caster's pipeline is specialised for.
+///
+/// ```
+/// let f = relief_wgpu::raycast::RayEffects { lighting: true, ..Default::default() };
+/// assert!(f.lighting && !f.shadows);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RayEffects {
+    /// Diffuse sun light from the normal map.
+    pub lighting: bool,
+    /// Shadow rays towards the sun.
+    pub shadows: bool,
+    /// Tiled detail map modulating the colour.
+    pub detail: bool,
+    /// Distance fog.
+    pub fog: bool,
+    /// A water plane.
+    pub water: bool,
+}
+
+impl RayEffects {
+    /// The override constants of `shaders/raycast.wgsl` for these effects and `method`.
+    ///
+    /// ```
+    /// let c = relief_wgpu::raycast::RayEffects::default().constants(relief_wgpu::Method::MaxMip);
+    /// assert!(c.iter().all(|&(_, v)| v == 0.0));
+    /// ```
+    #[must_use]
+    pub fn constants(&self, method: Method) -> Vec<(&'static str, f64)> {
+        let b = |x: bool| f64::from(u8::from(x));
+        vec![
+            (
+                "METHOD",
+                if matches!(method, Method::March { .. }) {
+                    1.0
+                } else {
+                    0.0
+                },
+            ),
+            ("LIGHTING", b(self.lighting)),
+            ("SHADOWS", b(self.shadows)),
+            ("DETAIL", b(self.detail)),
+            ("FOG", b(self.fog)),
+            ("WATER", b(self.water)),
+        ]
+    }
+}
+
+/// Shading parameters (used only by the effects that are on).
+///
+/// Defaults: sun from the south-west at 35 degrees elevation, ambient 0.3, fog colour light
+/// grey-blue with density `2e-5` per world unit, water blue at world height 0, detail gain 0.05.
+///
+/// ```
+/// let s = relief_wgpu::raycast::Shading::default().with_water_level(12.0);
+/// assert_eq!(s.water_level, 12.0);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shading {
+    /// Direction towards the sun (world, normalised on use).
+    pub sun: Vec3,
+    /// Ambient light in `[0, 1]`.
+    pub ambient: f32,
+    /// Fog colour (linear RGB).
+    pub fog_color: Vec3,
+    /// Fog density per world unit.
+    pub fog_density: f32,
+    /// Water colour.
+    pub water_color: Vec3,
+    /// Water level (world z).
+    pub water_level: f32,
+    /// Colour change per local height unit of the detail map.
+    pub detail_gain: f32,
+}
+
+impl Default for Shading {
+    fn default() -> Self {
+        Shading {
+            sun: Vec3::new(-0.58, -0.58, 0.57),
+            ambient: 0.3,
+            fog_color: Vec3::new(0.75, 0.8, 0.85),
+            fog_density: 2e-5,
+            water_color: Vec3::new(0.1, 0.25, 0.45),
+            water_level: 0.0,
+            detail_gain: 0.05,
+        }
+    }
+}
+
+impl Shading {
+    /// Sets the water level (world z; default 0).
+    ///
+    /// ```
+    /// assert_eq!(relief_wgpu::raycast::Shading::default().with_water_level(3.0).water_level, 3.0);
+    /// ```
+    #[must_use]
+    pub fn with_water_level(mut self, z: f32) -> Self {
+        self.water_level = z;
+        self
+    }
+
+    /// Sets the fog density per world unit (default `2e-5`).
+    ///
+    /// ```
+    /// assert_eq!(relief_wgpu::raycast::Shading::default().with_fog_density(1e-3).fog_density, 1e-3);
+    /// ```
+    #[must_use]
+    pub fn with_fog_density(mut self, d: f32) -> Self {
+        self.fog_density = d;
+        self
+    }
+
+    /// Sets the direction towards the sun (default south-west, 35 degrees up).
+    ///
+    /// ```
+    /// let s = relief_wgpu::raycast::Shading::default().with_sun(glam::Vec3::Z);
+    /// assert_eq!(s.sun, glam::Vec3::Z);
+    /// ```
+    #[must_use]
+    pub fn with_sun(mut self, sun: Vec3) -> Self {
+        self.sun = sun;
+        self
+    }
+}
+
+/// The ray caster's output buffers for a `width x height` image, row-major: depth (`f32` bits,
+/// `+inf` for a miss), world normal (`vec4<f32>`, `w = 1` on a hit) and colour (RGBA8).
+#[derive(Debug)]
+pub struct RayOutputs {
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// Depth (`f32`).
+    pub depth: wgpu::Buffer,
+    /// Normals (`vec4<f32>`).
+    pub normal: wgpu::Buffer,
+    /// Colour (RGBA8 packed in a `u32`).
+    pub color: wgpu::Buffer,
+}
+
+impl RayOutputs {
+    /// Output buffers for a `width x height` image.
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> RayOutputs {
+        let n = width as u64 * height as u64;
+        RayOutputs {
+            width,
+            height,
+            depth: util::storage(device, "relief depth", n * 4),
+            normal: util::storage(device, "relief normals out", n * 16),
+            color: util::storage(device, "relief colour", n * 4),
+        }
+    }
+
+    /// Reads the depth image back (waits for the GPU).
+    pub fn read_depth(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Vec<f32>, Error> {
+        let n = self.width as u64 * self.height as u64 * 4;
+        Ok(util::f32s(&util::read_buffer(
+            device,
+            queue,
+            &self.depth,
+            n,
+        )?))
+    }
+
+    /// Reads the normals back (`w = 1` on a hit; waits for the GPU).
+    pub fn read_normals(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Vec<[f32; 4]>, Error> {
+        let n = self.width as u64 * self.height as u64 * 16;
+        let v = util::f32s(&util::read_buffer(device, queue, &self.normal, n)?);
+        Ok(v.chunks_exact(4)
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect())
+    }
+
+    /// Reads the colours back as RGBA8 (waits for the GPU).
+    pub fn read_color(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Vec<[u8; 4]>, Error> {
+        let n = self.width as u64 * self.height as u64 * 4;
+        let b = util::read_buffer(device, queue, &self.color, n)?;
+        Ok(b.chunks_exact(4)
+            .map(|c| [c[0], c[1], c[2], c[3]])
+            .collect())
+    }
+}
+
+/// The ray casting pass for one terrain, method, effect set and image size.
+///
+/// ```no_run
+/// use relief_core::{Camera, Heightfield};
+/// use relief_wgpu::{raycast::{RayEffects, Shading}, GpuTerrain, Method, RayCastPass};
+/// use glam::Vec3;
+/// let gpu = relief_wgpu::headless()?;
+/// let hf = Heightfield::new(&[0.0f32; 16], 4, 4)?;
+/// let t = GpuTerrain::new(&gpu.device, &gpu.queue, &hf, false)?;
+/// let pass = RayCastPass::new(&gpu.device, &t, None, None, Method::MaxMip, RayEffects::default(), 8, 8)?;
+/// let cam = Camera::new(Vec3::new(-1.0, -1.0, 3.0), Vec3::new(2.0, 2.0, 0.0), 60.0, 8, 8)?;
+/// let mut enc = gpu.device.create_command_encoder(&Default::default());
+/// t.encode_maxmip(&mut enc);
+/// pass.encode(&gpu.queue, &mut enc, &t, &cam, &Shading::default())?;
+/// gpu.queue.submit([enc.finish()]);
+/// let depth = pass.outputs().read_depth(&gpu.device, &gpu.queue)?;
+/// assert_eq!(depth.len(), 64);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Debug)]
+pub struct RayCastPass {
+    method: Method,
+    effects: RayEffects,
+    detail_size: (u32, u32),
+    step_bound: u32,
+    pipeline: wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+    params: wgpu::Buffer,
+    out: RayOutputs,
+}
+
+const PARAM_WORDS: usize = 12 * 4 + 9 * 4;
+
+impl RayCastPass {
+    /// A pass over `terrain` writing a `width x height` image. `normals` (a normal map of the
+    /// terrain, `vec4<f32>` per sample) is needed for lighting, `detail` (`f32` local heights,
+    /// width, height) for the detail effect. [`Error::Unsupported`] when an effect lacks its
+    /// input, the image is empty, or the march options are out of range.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        device: &wgpu::Device,
+        terrain: &GpuTerrain,
+        normals: Option<&wgpu::Buffer>,
+        detail: Option<(&wgpu::Buffer, u32, u32)>,
+        method: Method,
+        effects: RayEffects,
+        width: u32,
+        height: u32,
+    ) -> Result<RayCastPass, Error> {
+        if width == 0 || height == 0 {
+            return Err(Error::Unsupported("empty image"));
+        }
+        if effects.lighting && normals.is_none() {
+            return Err(Error::Unsupported("lighting needs a normal map"));
+        }
+        if effects.detail && detail.is_none() {
+            return Err(Error::Unsupported("the detail effect needs a detail map"));
+        }
+        if let Method::March { samples, refine } = method {
+            if samples == 0 || refine > 64 {
+                return Err(Error::Unsupported(
+                    "march needs 1+ samples and at most 64 refinement steps",
+                ));
+            }
+        }
+        if terrain.mip_offsets().len() > 36 {
+            return Err(Error::Unsupported("too many max-mip levels"));
+        }
+        let dummy = util::storage(device, "relief unused", 16);
+        let out = RayOutputs::new(device, width, height);
+        let params = util::uniform(device, "relief ray params", PARAM_WORDS as u64 * 4);
+        let module =
+            device.create_shader_module(wgpu::include_wgsl!("../../../shaders/raycast.wgsl"));
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("relief raycast"),
+            entries: &[
+                uniform_entry(0, cs),
+                storage_entry(1, true, cs),
+                storage_entry(2, true, cs),
+                storage_entry(3, true, cs),
+                storage_entry(4, true, cs),
+                storage_entry(5, false, cs),
+                storage_entry(6, false, cs),
+                storage_entry(7, false, cs),
+            ],
+        });
+        let constants = effects.constants(method);
+        let pipeline = compute_pipeline(
+            device,
+            "relief raycast",
+            &layout,
+            &module,
+            "raycast",
+            &constants,
+        );
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("relief raycast"),
+            layout: &layout,
+            entries: &bind_buffers(&[
+                &params,
+                terrain.heights(),
+                terrain.maxmip(),
+                normals.unwrap_or(&dummy),
+                detail.map_or(&dummy, |d| d.0),
+                &out.depth,
+                &out.normal,
+                &out.color,
+            ]),
+        });
+        // MaxMip::step_bound.
+        let (w, h) = terrain.size();
+        let (nx, ny) = (w - 1, h - 1);
+        let mut bound = 2u64;
+        for k in 0..terrain.mip_offsets().len() as u32 {
+            bound += 2 * ((((nx - 1) >> k) + 1) as u64 + (((ny - 1) >> k) + 1) as u64) + 2;
+        }
+        Ok(RayCastPass {
+            method,
+            effects,
+            detail_size: detail.map_or((1, 1), |d| (d.1, d.2)),
+            step_bound: bound.min(u32::MAX as u64) as u32,
+            pipeline,
+            group,
+            params,
+            out,
+        })
+    }
+
+    /// The output buffers.
+    #[must_use]
+    pub fn outputs(&self) -> &RayOutputs {
+        &self.out
+    }
+
+    /// The effects this pipeline was specialised for.
+    #[must_use]
+    pub fn effects(&self) -> RayEffects {
+        self.effects
+    }
+
+    /// Writes the camera and shading parameters (a queue write) and records the dispatch.
+    /// The camera's image size must be the pass's ([`Error::Unsupported`] otherwise).
+    pub fn encode(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        terrain: &GpuTerrain,
+        camera: &Camera,
+        shading: &Shading,
+    ) -> Result<(), Error> {
+        if camera.width != self.out.width || camera.height != self.out.height {
+            return Err(Error::Unsupported(
+                "camera image size differs from the pass's",
+            ));
+        }
+        let p = self.params(terrain, camera, shading);
+        queue.write_buffer(&self.params, 0, bytemuck::cast_slice(&p));
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("relief raycast"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.group, &[]);
+        pass.dispatch_workgroups(groups(self.out.width, 8), groups(self.out.height, 8), 1);
+        Ok(())
+    }
+
+    fn params(
+        &self,
+        terrain: &GpuTerrain,
+        camera: &Camera,
+        shading: &Shading,
+    ) -> [u32; PARAM_WORDS] {
+        let s = terrain.scale();
+        let (f, r, u) = camera.basis();
+        let e = camera.eye.as_dvec3();
+        let eye = [
+            (e.x / f64::from(s.dx)) as f32,
+            (e.y / f64::from(s.dy)) as f32,
+            (e.z - f64::from(s.z_offset)) as f32,
+        ];
+        let (zmin, zmax) = terrain.height_range();
+        let margin = 1e-5 * zmin.abs().max(zmax.abs()) + 1e-6;
+        let sun = shading.sun.normalize_or(Vec3::Z);
+        let aspect = camera.width as f32 / camera.height as f32;
+        let (samples, refine) = match self.method {
+            Method::MaxMip => (1, 0),
+            Method::March { samples, refine } => (samples, refine),
+        };
+        let fl: [[f32; 4]; 10] = [
+            [eye[0], eye[1], eye[2], 0.0],
+            [f.x, f.y, f.z, 0.0],
+            [r.x, r.y, r.z, 0.0],
+            [u.x, u.y, u.z, 0.0],
+            [s.dx, s.dy, camera.tan_half_fov(), aspect],
+            [zmin - margin, zmax + margin, zmin, zmax],
+            [sun.x, sun.y, sun.z, shading.ambient],
+            [
+                shading.fog_color.x,
+                shading.fog_color.y,
+                shading.fog_color.z,
+                shading.fog_density,
+            ],
+            [
+                shading.water_color.x,
+                shading.water_color.y,
+                shading.water_color.z,
+                shading.water_level - s.z_offset,
+            ],
+            [
+                shading.detail_gain,
+                self.detail_size.0 as f32,
+                self.detail_size.1 as f32,
+                0.0,
+            ],
+        ];
+        let mut p = [0u32; PARAM_WORDS];
+        for (i, v) in fl.iter().flatten().enumerate() {
+            p[i] = v.to_bits();
+        }
+        let (w, h) = terrain.size();
+        let ints = [
+            camera.width,
+            camera.height,
+            w,
+            h,
+            terrain.mip_offsets().len() as u32,
+            self.step_bound,
+            samples,
+            refine,
+        ];
+        p[40..48].copy_from_slice(&ints);
+        for (i, &o) in terrain.mip_offsets().iter().enumerate() {
+            p[48 + i] = o;
+        }
+        p
+    }
+}

@@ -1,0 +1,685 @@
+//! GPU tests: every pass against the relief-core CPU result on the same input.
+//!
+//! They run on any adapter, Mesa's lavapipe included. Without any adapter each test prints a
+//! loud notice and returns, unless `RELIEF_REQUIRE_GPU=1` (set by `.ci/run`), which turns the
+//! missing adapter into a failure so a broken driver cannot pass CI.
+
+use glam::Vec3;
+use relief_core::ray::{MarchOptions, MaxMip, Ray, RayTracer};
+use relief_core::refine::{
+    preprocess, scratch_len, triangle_bound, vertex_bound, Criterion, Refiner,
+};
+use relief_core::{
+    normal_map, Camera, Composed, Heightfield, NormalMethod, Scale, Surface, Terrain,
+};
+use relief_wgpu::mesh::{depth_to_distance, MeshStyle};
+use relief_wgpu::raycast::{RayEffects, Shading};
+use relief_wgpu::terrain::Crater;
+use relief_wgpu::{
+    DepthTarget, Effect, Gpu, GpuTerrain, MeshPass, Method, NormalPass, PassName, RayCastPass,
+    Renderer, ResolvePass, Scene,
+};
+use std::sync::OnceLock;
+
+fn gpu() -> Option<&'static Gpu> {
+    static GPU: OnceLock<Option<Gpu>> = OnceLock::new();
+    GPU.get_or_init(|| match relief_wgpu::headless() {
+        Ok(g) => {
+            eprintln!(
+                "GPU tests on {} ({:?}, {:?})",
+                g.info.name, g.info.backend, g.info.device_type
+            );
+            Some(g)
+        }
+        Err(e) => {
+            if std::env::var("RELIEF_REQUIRE_GPU").is_ok_and(|v| v == "1") {
+                panic!("RELIEF_REQUIRE_GPU=1 but {e}");
+            }
+            eprintln!("\n!!!!! SKIPPING GPU TEST: {e} !!!!!\n");
+            None
+        }
+    })
+    .as_ref()
+}
+
+/// A rough synthetic terrain: sums of sines plus a hash, `w x h`.
+fn synthetic(w: u32, h: u32) -> Vec<f32> {
+    let mut v = Vec::with_capacity((w * h) as usize);
+    for y in 0..h {
+        for x in 0..w {
+            let (fx, fy) = (x as f32, y as f32);
+            let hash =
+                ((x.wrapping_mul(73_856_093) ^ y.wrapping_mul(19_349_663)) % 1000) as f32 / 1000.0;
+            v.push(
+                40.0 * (fx * 0.05).sin() * (fy * 0.07).cos()
+                    + 25.0 * ((fx + 2.0 * fy) * 0.021).sin()
+                    + 3.0 * hash
+                    + 50.0,
+            );
+        }
+    }
+    v
+}
+
+fn puget() -> relief_io::Dem {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../data/puget_sound_1k.png");
+    let mut dem = relief_io::read_dem(&p, &relief_io::ReadOptions::default()).unwrap();
+    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    dem
+}
+
+fn submit(g: &Gpu, f: impl FnOnce(&mut wgpu::CommandEncoder)) {
+    let mut enc = g.device.create_command_encoder(&Default::default());
+    f(&mut enc);
+    g.queue.submit([enc.finish()]);
+}
+
+/// Fraction of pixels whose GPU depth equals the CPU's: both miss, or both hit with
+/// `|t_gpu - t_cpu| <= tol(pixel)`.
+fn agreement(gpu: &[f32], cpu: &[f32], tol: impl Fn(usize) -> f64) -> (f64, usize) {
+    assert_eq!(gpu.len(), cpu.len());
+    let mut bad = 0;
+    for (i, (&g, &c)) in gpu.iter().zip(cpu).enumerate() {
+        assert!(!g.is_nan(), "NaN depth at pixel {i}");
+        let ok = if c.is_infinite() || g.is_infinite() {
+            c == g
+        } else {
+            (f64::from(g) - f64::from(c)).abs() <= tol(i)
+        };
+        if !ok {
+            if bad < 6 {
+                eprintln!("  pixel {i}: gpu {g} cpu {c}");
+            }
+            bad += 1;
+        }
+    }
+    (1.0 - bad as f64 / gpu.len() as f64, bad)
+}
+
+#[test]
+fn maxmip_build_equals_cpu_pyramid() {
+    let Some(g) = gpu() else { return };
+    for (w, h) in [(2, 2), (37, 29), (129, 97), (300, 5)] {
+        let s = synthetic(w, h);
+        let hf = Heightfield::with_scale(&s, w, h, Scale::default().with_z_scale(0.75)).unwrap();
+        let t = GpuTerrain::new(&g.device, &g.queue, &hf, false).unwrap();
+        submit(g, |e| t.encode_maxmip(e));
+        let gpu_mip = t.read_maxmip(&g.device, &g.queue).unwrap();
+        let mut cpu = vec![0.0f32; MaxMip::len(w, h).unwrap()];
+        MaxMip::build(&hf, &mut cpu).unwrap();
+        assert_eq!(gpu_mip, cpu, "{w}x{h}");
+    }
+}
+
+#[test]
+fn normal_maps_match_cpu_central_sobel_and_composed() {
+    let Some(g) = gpu() else { return };
+    let (w, h) = (97, 61);
+    let s = synthetic(w, h);
+    let scale = Scale::default().with_spacing(2.0, 3.0).with_z_scale(0.5);
+    let hf = Heightfield::with_scale(&s, w, h, scale).unwrap();
+    let t = GpuTerrain::new(&g.device, &g.queue, &hf, false).unwrap();
+    let check = |gpu: &[[f32; 3]], cpu: &[Vec3], what: &str| {
+        let worst = gpu
+            .iter()
+            .zip(cpu)
+            .map(|(a, b)| (Vec3::from_array(*a) - *b).length())
+            .fold(0.0f32, f32::max);
+        assert!(worst < 2e-5, "{what}: worst normal difference {worst}");
+    };
+    for method in [NormalMethod::Central, NormalMethod::Sobel] {
+        let pass = NormalPass::new(&g.device, &g.queue, &t, method, None).unwrap();
+        submit(g, |e| pass.encode(e));
+        let gpu_n = pass.read(&g.device, &g.queue).unwrap();
+        let mut cpu = vec![Vec3::ZERO; (w * h) as usize];
+        normal_map(&hf, method, &mut cpu).unwrap();
+        check(&gpu_n, &cpu, &format!("{method:?}"));
+    }
+    // Composed base + detail with factor 1: the detail (world heights) tiled and added.
+    let (dw, dh) = (7, 5);
+    let detail: Vec<f32> = (0..dw * dh)
+        .map(|i| ((i * 37) % 11) as f32 * 0.8 - 4.0)
+        .collect();
+    let dhf = Heightfield::new(&detail, dw, dh).unwrap();
+    let composed = Composed::new(hf, dhf, 1).unwrap();
+    for method in [NormalMethod::Central, NormalMethod::Sobel] {
+        let pass =
+            NormalPass::new(&g.device, &g.queue, &t, method, Some((&detail, dw, dh))).unwrap();
+        submit(g, |e| pass.encode(e));
+        let gpu_n = pass.read(&g.device, &g.queue).unwrap();
+        let mut cpu = vec![Vec3::ZERO; (w * h) as usize];
+        normal_map(&composed, method, &mut cpu).unwrap();
+        check(&gpu_n, &cpu, &format!("composed {method:?}"));
+        // The detail really changed the normals.
+        let mut plain = vec![Vec3::ZERO; (w * h) as usize];
+        normal_map(&hf, method, &mut plain).unwrap();
+        assert!(plain
+            .iter()
+            .zip(&cpu)
+            .any(|(a, b)| (*a - *b).length() > 1e-2));
+    }
+}
+
+fn cpu_depth<T: Terrain>(
+    hf: &T,
+    cam: &Camera,
+    mut f: impl FnMut(&Ray) -> Option<(f64, Vec3)>,
+) -> (Vec<f32>, Vec<Vec3>) {
+    let mut d = Vec::new();
+    let mut n = Vec::new();
+    let _ = hf;
+    for j in 0..cam.height {
+        for i in 0..cam.width {
+            let (o, dir) = cam.ray(i, j);
+            let r = Ray::new(o, dir).unwrap();
+            match f(&r) {
+                Some((t, nn)) => {
+                    d.push(t as f32);
+                    n.push(nn);
+                }
+                None => {
+                    d.push(f32::INFINITY);
+                    n.push(Vec3::ZERO);
+                }
+            }
+        }
+    }
+    (d, n)
+}
+
+fn gpu_rays(g: &Gpu, t: &GpuTerrain, method: Method, cam: &Camera) -> (Vec<f32>, Vec<[f32; 4]>) {
+    let pass = RayCastPass::new(
+        &g.device,
+        t,
+        None,
+        None,
+        method,
+        RayEffects::default(),
+        cam.width,
+        cam.height,
+    )
+    .unwrap();
+    submit(g, |e| {
+        t.encode_maxmip(e);
+        pass.encode(&g.queue, e, t, cam, &Shading::default())
+            .unwrap();
+    });
+    let o = pass.outputs();
+    (
+        o.read_depth(&g.device, &g.queue).unwrap(),
+        o.read_normals(&g.device, &g.queue).unwrap(),
+    )
+}
+
+fn cameras(hf: &impl Terrain) -> Vec<Camera> {
+    let e = hf.extent();
+    let (lo, hi) = (0.0f32, 1.0f32);
+    let _ = (lo, hi);
+    let (w, d) = (e.x, e.y);
+    let top = hf.z(0, 0).max(hf.z(hf.width() / 2, hf.height() / 2));
+    vec![
+        // Oblique from above a corner, looking across. (Eyes stay above the domain: rays that
+        // enter the prism through a side below the surface are a CPU tracer bug, see
+        // `rays_entering_through_a_side_below_the_surface_hit_there`.)
+        Camera::new(
+            Vec3::new(0.02 * w, 0.03 * d, top + 0.3 * w),
+            Vec3::new(0.6 * w, 0.7 * d, 0.0),
+            55.0,
+            256,
+            192,
+        )
+        .unwrap(),
+        // Low, inside the domain, grazing.
+        Camera::new(
+            Vec3::new(0.3 * w, 0.2 * d, top + 0.02 * w),
+            Vec3::new(0.9 * w, 0.8 * d, top),
+            70.0,
+            200,
+            150,
+        )
+        .unwrap(),
+    ]
+}
+
+#[test]
+fn maxmip_ray_casting_matches_cpu_trace() {
+    let Some(g) = gpu() else { return };
+    let (w, h) = (257, 193);
+    let s = synthetic(w, h);
+    let synth = Heightfield::with_scale(&s, w, h, Scale::default().with_spacing(2.0, 2.0)).unwrap();
+    let dem = puget();
+    let real = dem.heightfield().unwrap();
+    for (name, hf) in [("synthetic", synth), ("puget", real)] {
+        let t = GpuTerrain::new(&g.device, &g.queue, &hf, false).unwrap();
+        let mut buf = vec![0.0f32; MaxMip::len(hf.width(), hf.height()).unwrap()];
+        let mip = MaxMip::build(&hf, &mut buf).unwrap();
+        let tracer = RayTracer::new(&hf, Surface::Triangles);
+        for (k, cam) in cameras(&hf).iter().enumerate() {
+            let (gd, gn) = gpu_rays(g, &t, Method::MaxMip, cam);
+            let (cd, cn) = cpu_depth(&hf, cam, |r| {
+                tracer
+                    .trace_maxmip(r, &mip)
+                    .unwrap()
+                    .hit
+                    .map(|h| (h.t, h.normal))
+            });
+            let hits = cd.iter().filter(|t| t.is_finite()).count();
+            assert!(
+                hits > cd.len() / 4,
+                "{name} camera {k}: too few hits ({hits}) to test anything"
+            );
+            let (frac, bad) = agreement(&gd, &cd, |i| 1e-3 * f64::from(cd[i]));
+            eprintln!("{name} camera {k}: maxmip depth agreement {frac:.6} ({bad} pixels differ)");
+            assert!(frac >= 0.999, "{name} camera {k}: {frac} ({bad} pixels)");
+            // Normals of agreeing hits.
+            let mut close = 0;
+            let mut total = 0;
+            for i in 0..cd.len() {
+                if cd[i].is_finite() && gd[i].is_finite() && (gd[i] - cd[i]).abs() <= 1e-3 * cd[i] {
+                    total += 1;
+                    assert_eq!(gn[i][3], 1.0);
+                    if (Vec3::new(gn[i][0], gn[i][1], gn[i][2]) - cn[i]).length() < 1e-3 {
+                        close += 1;
+                    }
+                }
+            }
+            assert!(
+                close as f64 >= 0.999 * total as f64,
+                "{name} camera {k}: normals {close}/{total}"
+            );
+        }
+    }
+}
+
+#[test]
+fn march_ray_casting_matches_cpu_march() {
+    let Some(g) = gpu() else { return };
+    let dem = puget();
+    let hf = dem.heightfield().unwrap();
+    let t = GpuTerrain::new(&g.device, &g.queue, &hf, false).unwrap();
+    let tracer = RayTracer::new(&hf, Surface::Triangles);
+    let opts = MarchOptions::default();
+    for (k, cam) in cameras(&hf).iter().enumerate() {
+        let (gd, _) = gpu_rays(g, &t, Method::march(), cam);
+        let mut brackets = Vec::new();
+        let (cd, _) = cpu_depth(&hf, cam, |r| {
+            let m = tracer.trace_march(r, &opts).unwrap();
+            brackets.push(m.bracket);
+            m.trace.hit.map(|h| (h.t, h.normal))
+        });
+        // The march is approximate; the GPU must find the same bracket (to f32 rounding).
+        let (frac, bad) = agreement(&gd, &cd, |i| brackets[i] + 1e-3 * f64::from(cd[i]));
+        eprintln!("puget camera {k}: march depth agreement {frac:.6} ({bad} pixels differ)");
+        assert!(frac >= 0.999, "camera {k}: {frac} ({bad} pixels)");
+    }
+}
+
+fn refined_mesh(hf: &Heightfield<'_, f32>, max_error: f32) -> (Vec<[f32; 3]>, Vec<u32>) {
+    let (w, h) = (hf.width(), hf.height());
+    let (mut e, mut r) = (vec![0.0; (w * h) as usize], vec![0.0; (w * h) as usize]);
+    let hier = preprocess(hf, &mut e, &mut r).unwrap();
+    let rf = Refiner::new(&hier, hf, Criterion::MaxError(max_error)).unwrap();
+    let mut verts = vec![[0.0f32; 3]; vertex_bound(w, h)];
+    let mut tris = vec![[0u32; 3]; triangle_bound(w, h)];
+    let c = rf
+        .triangles(&mut vec![0; scratch_len(w, h)], &mut verts, &mut tris)
+        .unwrap();
+    verts.truncate(c.vertices);
+    tris.truncate(c.triangles);
+    (verts, tris.into_iter().flatten().collect())
+}
+
+/// First hit of a ray with a triangle list (Moller-Trumbore in f64, brute force): the CPU
+/// reference of what a rasteriser draws at a pixel centre.
+fn mesh_hit(verts: &[[f32; 3]], idx: &[u32], o: Vec3, d: Vec3) -> Option<f64> {
+    let (o, d) = (o.as_dvec3(), d.as_dvec3());
+    let mut best: Option<f64> = None;
+    for t in idx.chunks_exact(3) {
+        let p = |k: usize| Vec3::from_array(verts[t[k] as usize]).as_dvec3();
+        let (a, b, c) = (p(0), p(1), p(2));
+        let (e1, e2) = (b - a, c - a);
+        let pv = d.cross(e2);
+        let det = e1.dot(pv);
+        if det.abs() < 1e-12 {
+            continue;
+        }
+        let s = o - a;
+        let u = s.dot(pv) / det;
+        if !(0.0..=1.0).contains(&u) {
+            continue;
+        }
+        let q = s.cross(e1);
+        let v = d.dot(q) / det;
+        if v < 0.0 || u + v > 1.0 {
+            continue;
+        }
+        let tt = e2.dot(q) / det;
+        if tt > 0.0 && best.is_none_or(|b| tt < b) {
+            best = Some(tt);
+        }
+    }
+    best
+}
+
+#[test]
+fn mesh_pass_with_reversed_z_matches_cpu_ray_mesh_intersection() {
+    let Some(g) = gpu() else { return };
+    let (w, h) = (65, 65);
+    let s = synthetic(w, h);
+    let hf = Heightfield::with_scale(&s, w, h, Scale::default().with_spacing(3.0, 3.0)).unwrap();
+    let mut mesh = MeshPass::new(&g.device);
+    // Two refinements of different sizes drawn through the same (growing) buffers, per frame.
+    for max_error in [1.0, 0.05] {
+        let (verts, idx) = refined_mesh(&hf, max_error);
+        assert!(idx.len() / 3 > 200, "{} triangles", idx.len() / 3);
+        for c in cameras(&hf) {
+            let cam = Camera::new(c.eye, c.target, c.fov_deg, 128, 96).unwrap();
+            let target = DepthTarget::new(&g.device, cam.width, cam.height);
+            mesh.upload(&g.device, &g.queue, &verts, &idx);
+            submit(g, |e| {
+                mesh.encode(
+                    &g.queue,
+                    e,
+                    &target,
+                    &cam,
+                    MeshStyle::Terrain { lighting: true },
+                    (0.0, 120.0),
+                    true,
+                )
+                .unwrap()
+            });
+            let depth = target.read_depth(&g.device, &g.queue).unwrap();
+            let mut gd = Vec::new();
+            let mut cd = Vec::new();
+            for j in 0..cam.height {
+                for i in 0..cam.width {
+                    gd.push(depth_to_distance(
+                        &cam,
+                        1.0,
+                        i,
+                        j,
+                        depth[(j * cam.width + i) as usize],
+                    ));
+                    let (o, d) = cam.ray(i, j);
+                    cd.push(mesh_hit(&verts, &idx, o, d).map_or(f32::INFINITY, |t| t as f32));
+                }
+            }
+            let hits = cd.iter().filter(|t| t.is_finite()).count();
+            assert!(hits > cd.len() / 4, "too few hits: {hits}");
+            let (frac, bad) = agreement(&gd, &cd, |i| 1e-3 * f64::from(cd[i]));
+            eprintln!("mesh pass (E = {max_error}, {} triangles) depth agreement {frac:.6} ({bad} pixels differ)", idx.len() / 3);
+            assert!(frac >= 0.999, "{frac} ({bad})");
+        }
+    }
+}
+
+#[test]
+fn rays_entering_through_a_side_below_the_surface_hit_there() {
+    // CONVENTIONS.md: a ray entering the domain prism through a side below the surface hits at
+    // the side. Flat ground at z = 10; rays from x = -5 at z = 5 heading +x (slightly down).
+    let Some(g) = gpu() else { return };
+    let s = vec![10.0f32; 16 * 16];
+    let hf = Heightfield::new(&s, 16, 16).unwrap();
+    let t = GpuTerrain::new(&g.device, &g.queue, &hf, false).unwrap();
+    let cam = Camera::new(
+        Vec3::new(-5.0, 7.5, 5.0),
+        Vec3::new(10.0, 7.5, 4.0),
+        20.0,
+        8,
+        8,
+    )
+    .unwrap();
+    for method in [Method::MaxMip, Method::march()] {
+        let (gd, _) = gpu_rays(g, &t, method, &cam);
+        for j in 0..8 {
+            for i in 0..8 {
+                let (o, d) = cam.ray(i, j);
+                let expect = (0.0 - o.x) / d.x; // the x = 0 side
+                let got = gd[(j * 8 + i) as usize];
+                assert!(
+                    (got - expect).abs() <= 1e-4 * expect,
+                    "{method:?} pixel ({i}, {j}): {got} vs {expect}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn depth_output_lets_terrain_and_meshes_occlude_each_other() {
+    let Some(g) = gpu() else { return };
+    let (w, h) = (129, 129);
+    let s = synthetic(w, h);
+    let hf = Heightfield::with_scale(&s, w, h, Scale::default().with_spacing(3.0, 3.0)).unwrap();
+    let t = GpuTerrain::new(&g.device, &g.queue, &hf, false).unwrap();
+    let cam = cameras(&hf)[0];
+    let rays = RayCastPass::new(
+        &g.device,
+        &t,
+        None,
+        None,
+        Method::MaxMip,
+        RayEffects::default(),
+        cam.width,
+        cam.height,
+    )
+    .unwrap();
+    let target = DepthTarget::new(&g.device, cam.width, cam.height);
+    let resolve = ResolvePass::new(&g.device, rays.outputs(), 1.0);
+    // A vertical red wall across the view, x = 200, part in front of and part behind hills.
+    let quad = [
+        [200.0f32, 0.0, 0.0],
+        [200.0, 384.0, 0.0],
+        [200.0, 384.0, 110.0],
+        [200.0, 0.0, 110.0],
+    ];
+    let mut mesh = MeshPass::new(&g.device);
+    mesh.upload(&g.device, &g.queue, &quad, &[0, 1, 2, 0, 2, 3]);
+    submit(g, |e| {
+        t.encode_maxmip(e);
+        rays.encode(&g.queue, e, &t, &cam, &Shading::default())
+            .unwrap();
+        resolve.encode(&g.queue, e, &target, &cam).unwrap();
+        mesh.encode(
+            &g.queue,
+            e,
+            &target,
+            &cam,
+            MeshStyle::Flat([1.0, 0.0, 0.0]),
+            (0.0, 1.0),
+            false,
+        )
+        .unwrap();
+    });
+    let color = target.read_color(&g.device, &g.queue).unwrap();
+    let ray_color = rays.outputs().read_color(&g.device, &g.queue).unwrap();
+    let mut buf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
+    let mip = MaxMip::build(&hf, &mut buf).unwrap();
+    let tracer = RayTracer::new(&hf, Surface::Triangles);
+    let (mut wall, mut hidden, mut bad) = (0, 0, 0);
+    for j in 0..cam.height {
+        for i in 0..cam.width {
+            let (o, d) = cam.ray(i, j);
+            let k = (j * cam.width + i) as usize;
+            let tw = (200.0 - o.x) / d.x;
+            let p = o + tw * d;
+            let on_wall = tw > 0.0 && p.y > 0.0 && p.y < 384.0 && p.z > 0.0 && p.z < 110.0;
+            let tt = tracer
+                .trace_maxmip(&Ray::new(o, d).unwrap(), &mip)
+                .unwrap()
+                .hit
+                .map_or(f64::INFINITY, |h| h.t);
+            // Skip pixels within 0.5 % of a tie or of the wall's edge.
+            let margin = 0.005 * f64::from(tw);
+            let edge = (p.y.min(384.0 - p.y).min(p.z).min(110.0 - p.z)).abs() < 1.0;
+            if edge || (on_wall && (f64::from(tw) - tt).abs() < margin) {
+                continue;
+            }
+            let expect_wall = on_wall && f64::from(tw) < tt;
+            let got_wall = color[k] == [255, 0, 0, 255];
+            if expect_wall {
+                wall += 1;
+            } else if on_wall {
+                hidden += 1;
+                if color[k] != ray_color[k] {
+                    bad += 1;
+                }
+            }
+            if expect_wall != got_wall {
+                bad += 1;
+            }
+        }
+    }
+    eprintln!("depth output: {wall} wall pixels in front, {hidden} hidden by terrain, {bad} wrong");
+    assert!(
+        wall > 100 && hidden > 100,
+        "the test scene must show both cases: {wall} / {hidden}"
+    );
+    assert!(
+        bad as f64 <= 0.001 * f64::from(cam.width * cam.height),
+        "{bad} wrong pixels"
+    );
+}
+
+#[test]
+fn scenes_dispatch_exactly_the_passes_their_effects_need() {
+    let Some(g) = gpu() else { return };
+    let (w, h) = (65, 65);
+    let s = synthetic(w, h);
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let cam = Camera::new(
+        Vec3::new(-10.0, -10.0, 160.0),
+        Vec3::new(40.0, 40.0, 40.0),
+        60.0,
+        64,
+        48,
+    )
+    .unwrap();
+    use PassName::*;
+    let cases: Vec<(Scene, Vec<PassName>, Vec<PassName>)> = vec![
+        (Scene::new(), vec![MaxMipBuild, RayCast], vec![RayCast]),
+        (
+            Scene::new().with_method(Method::march()),
+            vec![RayCast],
+            vec![RayCast],
+        ),
+        (
+            Scene::new().with_effects(&[Effect::Lighting, Effect::Fog]),
+            vec![MaxMipBuild, NormalMap, RayCast],
+            vec![RayCast],
+        ),
+        (
+            Scene::new().with_effects(&[Effect::Shadows, Effect::Water, Effect::Detail]),
+            vec![MaxMipBuild, RayCast],
+            vec![RayCast],
+        ),
+        (
+            Scene::new().with_effects(&[Effect::DepthOutput]),
+            vec![MaxMipBuild, RayCast, DepthResolve],
+            vec![RayCast, DepthResolve],
+        ),
+        (
+            Scene::new()
+                .with_effects(&[Effect::Deformations, Effect::Lighting])
+                .with_craters(&[Crater {
+                    center: [30.0, 30.0],
+                    radius: 10.0,
+                    depth: 20.0,
+                }]),
+            vec![Deform, MaxMipBuild, NormalMap, RayCast],
+            vec![Deform, MaxMipBuild, NormalMap, RayCast],
+        ),
+    ];
+    for (scene, first, next) in cases {
+        let name = format!("{:?}", scene.effects());
+        let mut r = Renderer::new(&g.device, &g.queue, &hf, scene).unwrap();
+        let f1 = r.render(&g.device, &g.queue, &cam).unwrap();
+        assert_eq!(r.last_passes(), first.as_slice(), "{name} first frame");
+        r.render(&g.device, &g.queue, &cam).unwrap();
+        assert_eq!(r.last_passes(), next.as_slice(), "{name} second frame");
+        assert!(
+            f1.depth.iter().any(|d| d.is_finite()),
+            "{name}: nothing hit"
+        );
+    }
+}
+
+#[test]
+fn effects_change_the_colour_not_the_depth_and_craters_match_the_cpu() {
+    let Some(g) = gpu() else { return };
+    let (w, h) = (129, 129);
+    let s = synthetic(w, h);
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let cam = Camera::new(
+        Vec3::new(2.0, 3.0, 180.0),
+        Vec3::new(64.0, 64.0, 40.0),
+        60.0,
+        96,
+        72,
+    )
+    .unwrap();
+    let bare = Renderer::new(&g.device, &g.queue, &hf, Scene::new())
+        .unwrap()
+        .render(&g.device, &g.queue, &cam)
+        .unwrap();
+    for e in [
+        Effect::Lighting,
+        Effect::Shadows,
+        Effect::Detail,
+        Effect::Fog,
+    ] {
+        let f = Renderer::new(&g.device, &g.queue, &hf, Scene::new().with_effect(e))
+            .unwrap()
+            .render(&g.device, &g.queue, &cam)
+            .unwrap();
+        assert_eq!(f.depth, bare.depth, "{e:?} must not move the surface");
+        assert_ne!(f.color, bare.color, "{e:?} must change the picture");
+    }
+    // Craters: GPU deformed heights and the depth image against the CPU on the same heights.
+    let craters = [
+        Crater {
+            center: [60.0, 70.0],
+            radius: 18.0,
+            depth: 30.0,
+        },
+        Crater {
+            center: [90.0, 40.0],
+            radius: 9.5,
+            depth: 12.0,
+        },
+    ];
+    let scene = Scene::new()
+        .with_effect(Effect::Deformations)
+        .with_craters(&craters);
+    let mut r = Renderer::new(&g.device, &g.queue, &hf, scene).unwrap();
+    let frame = r.render(&g.device, &g.queue, &cam).unwrap();
+    let gpu_h = r.terrain().read_heights(&g.device, &g.queue).unwrap();
+    let cpu_h: Vec<f32> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            craters.iter().fold(s[(y * w + x) as usize], |z, c| {
+                z - c.lowering(x as f32, y as f32)
+            })
+        })
+        .collect();
+    let worst = gpu_h
+        .iter()
+        .zip(&cpu_h)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 1e-4, "deformed heights differ by {worst}");
+    let dhf = Heightfield::new(&cpu_h, w, h).unwrap();
+    let mut buf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
+    let mip = MaxMip::build(&dhf, &mut buf).unwrap();
+    let tracer = RayTracer::new(&dhf, Surface::Triangles);
+    let (cd, _) = cpu_depth(&dhf, &cam, |r| {
+        tracer
+            .trace_maxmip(r, &mip)
+            .unwrap()
+            .hit
+            .map(|h| (h.t, h.normal))
+    });
+    let (frac, bad) = agreement(&frame.depth, &cd, |i| 1e-3 * f64::from(cd[i]));
+    assert!(frac >= 0.999, "deformed terrain: {frac} ({bad})");
+    assert_ne!(frame.depth, bare.depth, "the craters are visible");
+}

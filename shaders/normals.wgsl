@@ -1,0 +1,63 @@
+// Normal map from finite differences (Balogh 2003, seed 004, section 2.3: the normal is
+// (-dz/dx, -dz/dy, 1) normalised; Kentie 2009, seed 003, section 3.6: Sobel for smoother
+// normals). Same border rule as relief_core::normal_map: a missing neighbour is replaced by the
+// sample itself and the difference divided by the spacing actually spanned.
+// Composed base + detail (Balogh section 7.3, summed differences) when DETAIL is set: the detail
+// map (detail_w x detail_h samples, tiled with period detail_w x detail_h base samples) is added
+// to the base heights before differencing.
+
+struct NormalParams {
+    width: u32,
+    height: u32,
+    detail_w: u32,
+    detail_h: u32,
+    dx: f32,
+    dy: f32,
+    _pad0: f32,
+    _pad1: f32,
+}
+
+// 0: central differences, 1: Sobel.
+override SOBEL: bool = false;
+override DETAIL: bool = false;
+
+@group(0) @binding(0) var<storage, read> heights: array<f32>;
+@group(0) @binding(1) var<storage, read_write> normals: array<vec4<f32>>;
+@group(0) @binding(2) var<uniform> p: NormalParams;
+@group(0) @binding(3) var<storage, read> detail: array<f32>;
+
+fn z(x: u32, y: u32) -> f32 {
+    var h = heights[y * p.width + x];
+    if DETAIL {
+        h += detail[(y % p.detail_h) * p.detail_w + (x % p.detail_w)];
+    }
+    return h;
+}
+
+@compute @workgroup_size(8, 8)
+fn normal_map(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= p.width || id.y >= p.height {
+        return;
+    }
+    let x = id.x;
+    let y = id.y;
+    let xl = select(x - 1u, 0u, x == 0u);
+    let xr = min(x + 1u, p.width - 1u);
+    let yl = select(y - 1u, 0u, y == 0u);
+    let yr = min(y + 1u, p.height - 1u);
+    let sx = f32(xr - xl) * p.dx;
+    let sy = f32(yr - yl) * p.dy;
+    var gx: f32;
+    var gy: f32;
+    if SOBEL {
+        gx = ((z(xr, yl) + 2.0 * z(xr, y) + z(xr, yr)) - (z(xl, yl) + 2.0 * z(xl, y) + z(xl, yr))) / (4.0 * sx);
+        gy = ((z(xl, yr) + 2.0 * z(x, yr) + z(xr, yr)) - (z(xl, yl) + 2.0 * z(x, yl) + z(xr, yl))) / (4.0 * sy);
+    } else {
+        gx = (z(xr, y) - z(xl, y)) / sx;
+        gy = (z(x, yr) - z(x, yl)) / sy;
+    }
+    // Scale by the largest component first so the squares cannot overflow.
+    let m = max(max(abs(gx), abs(gy)), 1.0);
+    let n = normalize(vec3<f32>(-gx / m, -gy / m, 1.0 / m));
+    normals[y * p.width + x] = vec4<f32>(n, 0.0);
+}
