@@ -23,6 +23,8 @@ struct Cli {
 enum Command {
     /// Print size and height statistics of a DEM.
     Info(cmd::info::InfoArgs),
+    /// SOAR refinement of a DEM into an OBJ mesh (view-independent or view-dependent).
+    Mesh(cmd::mesh::MeshArgs),
     /// Run every method on one DEM: accuracy against time, as HTML, Markdown, JSON and PNGs.
     Report(cmd::report::ReportArgs),
     /// Adaptive grid + truncated Gaussian RBF approximation of a DEM (cells CSV, raw f32).
@@ -73,6 +75,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Info(a) => cmd::info::run(&a),
+        Command::Mesh(a) => cmd::mesh::run(&a),
         Command::Report(a) => cmd::report::run(&a),
         Command::Rbf(a) => cmd::rbf::run(&a),
         Command::Trace(a) => cmd::trace::run(&a),

@@ -1,6 +1,7 @@
 //! One module per subcommand.
 
 pub mod info;
+pub mod mesh;
 pub mod mesh_tin;
 pub mod rbf;
 pub mod report;

@@ -54,7 +54,7 @@ mod strip;
 mod tests;
 
 pub use grid::RefineGrid;
-pub use scan::{coverage_len, vertical_error};
+pub use scan::{coverage_len, vertical_error, vertical_error_partial};
 pub use select::{Criterion, FrameCounts, MorphVertex, Refiner, StripCounts, View};
 
 use crate::{Error, Scale, Terrain};

@@ -43,6 +43,32 @@ pub fn vertical_error<T: Terrain>(
     triangles: &[[u32; 3]],
     coverage: &mut [u64],
 ) -> Result<f64, Error> {
+    let (max, uncovered) = vertical_error_partial(terrain, vertices, triangles, coverage)?;
+    match uncovered {
+        None => Ok(max),
+        Some((x, y, _)) => Err(Error::OutOfBounds { x, y }),
+    }
+}
+
+/// [`vertical_error`] for meshes with holes (view-dependent meshes with culling): the maximum
+/// over the samples the mesh covers, and the first uncovered sample `(x, y)` with the number of
+/// uncovered samples (`None` when the mesh covers the whole grid).
+///
+/// ```
+/// use relief_core::refine::{coverage_len, vertical_error_partial};
+/// use relief_core::Heightfield;
+/// let hf = Heightfield::new(&[0.0f32, 0.0, 0.0, 3.0], 2, 2).unwrap();
+/// let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 3.0], [0.0, 1.0, 0.0]];
+/// let mut cov = vec![0u64; coverage_len(2, 2)];
+/// let r = vertical_error_partial(&hf, &v, &[[0, 1, 2]], &mut cov).unwrap();
+/// assert_eq!(r, (0.0, Some((0, 1, 1))));
+/// ```
+pub fn vertical_error_partial<T: Terrain>(
+    terrain: &T,
+    vertices: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    coverage: &mut [u64],
+) -> Result<(f64, Option<(u32, u32, usize)>), Error> {
     let (w, h) = (terrain.width() as usize, terrain.height() as usize);
     let n = w * h;
     let words = n.div_ceil(64);
@@ -102,6 +128,8 @@ pub fn vertical_error<T: Terrain>(
             },
         );
     }
+    let mut first = None;
+    let mut missing = 0usize;
     for (wi, &word) in cov.iter().enumerate() {
         let top = (n - wi * 64).min(64);
         let full = if top == 64 {
@@ -110,13 +138,13 @@ pub fn vertical_error<T: Terrain>(
             (1u64 << top) - 1
         };
         if word != full {
-            let k = (!word & full).trailing_zeros() as usize;
-            let i = wi * 64 + k;
-            return Err(Error::OutOfBounds {
-                x: (i % w) as u32,
-                y: (i / w) as u32,
-            });
+            let gap = !word & full;
+            missing += gap.count_ones() as usize;
+            if first.is_none() {
+                let k = wi * 64 + gap.trailing_zeros() as usize;
+                first = Some(((k % w) as u32, (k / w) as u32));
+            }
         }
     }
-    Ok(max)
+    Ok((max, first.map(|(x, y)| (x, y, missing))))
 }

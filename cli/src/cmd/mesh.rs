@@ -1,0 +1,220 @@
+//! `relief mesh`: SOAR refinement of a DEM (relief_core::refine) into an OBJ mesh, view-independent
+//! (`--max-error E`) or view-dependent (`--eye --target --fov --size --pixel-error`), with the
+//! mesh's vertical error measured by a full grid scan.
+
+use crate::args::DemArgs;
+use crate::{print_out, CliError, CliResult};
+use clap::{Args, ValueEnum};
+use relief_core::glam::Vec3;
+use relief_core::refine::{
+    coverage_len, hierarchy_len, preprocess, preprocess_compact, scratch_len, strip_bound,
+    vertical_error_partial, Criterion, Hierarchy, Refiner, StripCounts, View,
+};
+use relief_core::{Camera, Heightfield};
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Layout of the preprocessed data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Layout {
+    /// `f32` error and bounding-sphere radius per vertex (8 bytes).
+    Full,
+    /// bfloat16 error rounded up, radius from the level (2 bytes).
+    Compact,
+}
+
+/// Options of `relief mesh`.
+#[derive(Debug, Args)]
+pub struct MeshArgs {
+    #[command(flatten)]
+    dem: DemArgs,
+    /// View-independent: largest vertical error allowed (world z units).
+    #[arg(long, value_name = "E", conflicts_with_all = ["eye", "pixel_error"])]
+    max_error: Option<f32>,
+    /// View-dependent: eye position X,Y,Z in world units.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3, requires_all = ["target", "size", "pixel_error"])]
+    eye: Option<Vec3>,
+    /// View-dependent: point looked at X,Y,Z.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    target: Option<Vec3>,
+    /// View-dependent: vertical field of view in degrees.
+    #[arg(long, default_value_t = 60.0)]
+    fov: f32,
+    /// View-dependent: image size WxH in pixels.
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// View-dependent: largest projected error in pixels.
+    #[arg(long, value_name = "T")]
+    pixel_error: Option<f32>,
+    /// View-dependent: do not cull against the view frustum.
+    #[arg(long)]
+    no_cull: bool,
+    /// View-dependent: finest levels accepted without culling (lazy culling, default 4).
+    #[arg(long, value_name = "N", default_value_t = 4)]
+    lazy_levels: u32,
+    /// Preprocessed data layout.
+    #[arg(long, value_enum, default_value = "full")]
+    layout: Layout,
+    /// Output OBJ file.
+    #[arg(long, value_name = "PATH")]
+    out: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let p: Vec<&str> = s.split(',').collect();
+    if p.len() != 3 {
+        return Err(format!("expected X,Y,Z, got {s:?}"));
+    }
+    let mut v = [0.0f32; 3];
+    for (o, t) in v.iter_mut().zip(p) {
+        *o = t.trim().parse::<f32>().map_err(|e| format!("{t:?}: {e}"))?;
+    }
+    Ok(Vec3::from_array(v))
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (a, b) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WxH, got {s:?}"))?;
+    let w = a.trim().parse::<u32>().map_err(|e| format!("{a:?}: {e}"))?;
+    let h = b.trim().parse::<u32>().map_err(|e| format!("{b:?}: {e}"))?;
+    Ok((w, h))
+}
+
+/// Runs `relief mesh`.
+pub fn run(a: &MeshArgs) -> CliResult {
+    let criterion_kind = match (a.max_error, a.eye) {
+        (Some(_), None) => "view-independent",
+        (None, Some(_)) => "view-dependent",
+        _ => {
+            return Err(CliError(
+                "relief mesh needs --max-error E, or --eye/--target/--size/--pixel-error".into(),
+            ))
+        }
+    };
+    let (dem, _) = a.dem.load()?;
+    let hf = dem.heightfield()?;
+    let (w, h) = (dem.width, dem.height);
+    let n = hierarchy_len(w, h);
+    let full = a.layout == Layout::Full;
+    let mut errors_f = vec![0.0f32; if full { n } else { 0 }];
+    let mut radii = vec![0.0f32; if full { n } else { 0 }];
+    let mut errors_c = vec![0u16; if full { 0 } else { n }];
+    let t0 = Instant::now();
+    let hier: Hierarchy<'_> = if full {
+        preprocess(&hf, &mut errors_f, &mut radii)?
+    } else {
+        preprocess_compact(&hf, &mut errors_c)?
+    };
+    let preprocess_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let criterion = match (a.max_error, a.eye) {
+        (Some(e), _) => Criterion::MaxError(e),
+        (None, Some(eye)) => {
+            let target = a
+                .target
+                .ok_or_else(|| CliError("--eye needs --target".into()))?;
+            let (iw, ih) = a
+                .size
+                .ok_or_else(|| CliError("--eye needs --size WxH".into()))?;
+            let tau = a
+                .pixel_error
+                .ok_or_else(|| CliError("--eye needs --pixel-error T".into()))?;
+            let cam = Camera::new(eye, target, a.fov, iw, ih)?;
+            Criterion::View(
+                View::new(&cam, tau)?
+                    .with_culling(!a.no_cull)
+                    .with_lazy_levels(a.lazy_levels),
+            )
+        }
+        _ => unreachable_criterion()?,
+    };
+    let refiner = Refiner::new(&hier, &hf, criterion)?;
+    let mut scratch = vec![0u64; scratch_len(w, h)];
+    let t1 = Instant::now();
+    let counts = refiner.count(&mut scratch)?;
+    let mut vertices = vec![[0.0f32; 3]; counts.vertices];
+    let mut triangles = vec![[0u32; 3]; counts.triangles];
+    refiner.triangles(&mut scratch, &mut vertices, &mut triangles)?;
+    let refine_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let strip = strip_stats(&refiner, &hf, w, h)?;
+    let mut cov = vec![0u64; coverage_len(w, h)];
+    let (max_err, uncovered) = vertical_error_partial(&hf, &vertices, &triangles, &mut cov)?;
+    if criterion_kind == "view-independent" && uncovered.is_some() {
+        return Err(CliError(format!(
+            "internal error: the mesh leaves sample {:?} uncovered",
+            uncovered
+        )));
+    }
+    relief_io::write_obj(&a.out, &vertices, &triangles)?;
+    let uncovered_n = uncovered.map_or(0, |u| u.2);
+    if a.json {
+        let strip_json = strip.map(|s| {
+            serde_json::json!({
+                "indices": s.indices,
+                "triangles": s.triangles,
+                "indices_per_triangle": s.indices_per_triangle(),
+            })
+        });
+        let v = serde_json::json!({
+            "width": w,
+            "height": h,
+            "mode": criterion_kind,
+            "layout": format!("{:?}", a.layout).to_lowercase(),
+            "bytes_per_vertex": hier.bytes_per_vertex(),
+            "vertices": counts.vertices,
+            "triangles": counts.triangles,
+            "max_error_measured": max_err,
+            "uncovered_samples": uncovered_n,
+            "preprocess_ms": preprocess_ms,
+            "refine_ms": refine_ms,
+            "strip_length": strip.map(|s| s.indices),
+            "inout_strip": strip_json,
+            "out": a.out.display().to_string(),
+        });
+        print_out(&format!("{v}\n"))
+    } else {
+        let strip_line = match strip {
+            Some(s) => format!(
+                "{} indices, {} triangles ({:.3} per triangle)",
+                s.indices,
+                s.triangles,
+                s.indices_per_triangle()
+            ),
+            None => "n/a (grid is not (2^k+1) x (2^k+1))".into(),
+        };
+        print_out(&format!(
+            "{out}\n  mode        {criterion_kind}\n  size        {w} x {h}\n  vertices    {v}\n  triangles   {t}\n  max error   {max_err:.4} (measured over {cov} samples)\n  preprocess  {preprocess_ms:.1} ms ({layout:?}, {bpv} bytes/vertex)\n  refine      {refine_ms:.1} ms\n  strip       {strip_line}\n",
+            out = a.out.display(),
+            v = counts.vertices,
+            t = counts.triangles,
+            cov = n - uncovered_n,
+            layout = a.layout,
+            bpv = hier.bytes_per_vertex(),
+        ))
+    }
+}
+
+fn unreachable_criterion() -> CliResult<Criterion> {
+    Err(CliError(
+        "relief mesh needs --max-error E, or --eye/--target/--size/--pixel-error".into(),
+    ))
+}
+
+/// The in/out-edge strip's size (square `(2^k+1)^2` grids only).
+fn strip_stats(
+    r: &Refiner<'_, '_, Heightfield<'_, f32>>,
+    _hf: &Heightfield<'_, f32>,
+    w: u32,
+    h: u32,
+) -> CliResult<Option<StripCounts>> {
+    if !relief_core::refine::RefineGrid::new(w, h)?.is_square() {
+        return Ok(None);
+    }
+    let mut scratch = vec![0u64; scratch_len(w, h)];
+    let mut v = vec![[0.0f32; 3]; hierarchy_len(w, h)];
+    let mut s = vec![0u32; strip_bound(w, h)];
+    Ok(Some(r.inout_strip(&mut scratch, &mut v, &mut s)?))
+}
