@@ -8,6 +8,10 @@
 //! - `rays_trace_*`: full tracing of camera rays on the bundled Puget Sound DEM (1025 x 1025,
 //!   160 m spacing, z 0.1), one thread, triangles surface: cell DDA, run DDA (whole-run
 //!   rejection), max-mip; for a camera view and a grazing view.
+//!
+//! With `RELIEF_RAYS_TABLE=1` it first prints a table of interleaved measurements (A, B, A, B,
+//! ... 15 rounds each, medians and the median of per-round ratios), which is robust against
+//! load from other processes on a shared machine; the criterion groups follow.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use relief_core::glam::{DVec2, Vec3};
@@ -117,30 +121,7 @@ fn tracing(c: &mut Criterion) {
     let acc = RunAccel::build(&hf, &mut rbuf).unwrap();
     let mut mbuf = vec![0.0f32; MaxMip::len(dem.width, dem.height).unwrap()];
     let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
-    let views = [
-        (
-            "camera",
-            Camera::new(
-                Vec3::new(20_000.0, 15_000.0, hi + 3_000.0),
-                Vec3::new(90_000.0, 100_000.0, lo),
-                60.0,
-                192,
-                128,
-            )
-            .unwrap(),
-        ),
-        (
-            "grazing",
-            Camera::new(
-                Vec3::new(2_000.0, 3_000.0, hi + 30.0),
-                Vec3::new(160_000.0, 150_000.0, hi + 10.0),
-                30.0,
-                192,
-                128,
-            )
-            .unwrap(),
-        ),
-    ];
+    let views = views(lo, hi);
     for (name, cam) in views {
         let rays = camera_rays(&cam);
         let mut g = c.benchmark_group(format!("rays_trace_{name}"));
@@ -185,5 +166,141 @@ fn tracing(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, traversal, tracing);
+/// Median of per-round ratios and medians of A and B (seconds), alternating A and B.
+fn interleaved(
+    rounds: usize,
+    mut a: impl FnMut() -> u64,
+    mut b: impl FnMut() -> u64,
+) -> (f64, f64, f64) {
+    let (mut ta, mut tb, mut r) = (Vec::new(), Vec::new(), Vec::new());
+    // One untimed round of each first (caches, frequency, lazy page faults).
+    let mut sink = a().wrapping_add(b());
+    for _ in 0..rounds {
+        let t = std::time::Instant::now();
+        sink = sink.wrapping_add(a());
+        let x = t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        sink = sink.wrapping_add(b());
+        let y = t.elapsed().as_secs_f64();
+        ta.push(x);
+        tb.push(y);
+        r.push(x / y);
+    }
+    black_box(sink);
+    let med = |v: &mut Vec<f64>| {
+        v.sort_by(|p, q| p.total_cmp(q));
+        v[v.len() / 2]
+    };
+    (med(&mut ta), med(&mut tb), med(&mut r))
+}
+
+fn table() {
+    if std::env::var("RELIEF_RAYS_TABLE").is_err() {
+        return;
+    }
+    println!("| comparison | A median | B median | A / B (median of rounds) |");
+    println!("|---|---|---|---|");
+    let lines = orientation_lines(256);
+    let cells: u64 = lines.iter().map(|l| l.cells().count() as u64).sum();
+    let rep = 20;
+    let (a, b, r) = interleaved(
+        15,
+        || (0..rep).map(|_| walk_cells(black_box(&lines))).sum(),
+        || (0..rep).map(|_| walk_runs(black_box(&lines))).sum(),
+    );
+    let per = (rep as u64 * cells) as f64;
+    println!(
+        "| traversal, 256 orientations ({cells} cells): cell DDA (A) vs run DDA (B) | {:.2} ns/cell | {:.2} ns/cell | {r:.2} |",
+        a / per * 1e9,
+        b / per * 1e9
+    );
+    for len in [1.1f64, 2.0, 4.0, 8.0, 25.0, 100.0] {
+        let lines = slope_lines(len + 0.013);
+        let cells: u64 = lines.iter().map(|l| l.cells().count() as u64).sum();
+        let (a, b, r) = interleaved(
+            15,
+            || (0..rep).map(|_| walk_cells(black_box(&lines))).sum(),
+            || (0..rep).map(|_| walk_runs(black_box(&lines))).sum(),
+        );
+        let per = (rep as u64 * cells) as f64;
+        println!(
+            "| traversal, run length {len}: cell DDA (A) vs run DDA (B) | {:.2} ns/cell | {:.2} ns/cell | {r:.2} |",
+            a / per * 1e9,
+            b / per * 1e9
+        );
+    }
+    let dem = load();
+    let hf = dem.heightfield().unwrap();
+    let tracer = RayTracer::new(&hf, Surface::Triangles);
+    let (lo, hi) = tracer.height_range();
+    let mut rbuf = vec![0.0f32; RunAccel::len(dem.width, dem.height).unwrap()];
+    let acc = RunAccel::build(&hf, &mut rbuf).unwrap();
+    let mut mbuf = vec![0.0f32; MaxMip::len(dem.width, dem.height).unwrap()];
+    let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
+    for (name, cam) in views(lo, hi) {
+        let rays = camera_rays(&cam);
+        let n = rays.len() as f64;
+        let cell = || {
+            rays.iter()
+                .map(|r| tracer.trace_cell_dda(r).hit.is_some() as u64)
+                .sum::<u64>()
+        };
+        let run = || {
+            rays.iter()
+                .map(|r| tracer.trace_run_dda(r, &acc).unwrap().hit.is_some() as u64)
+                .sum::<u64>()
+        };
+        let mm = || {
+            rays.iter()
+                .map(|r| tracer.trace_maxmip(r, &mip).unwrap().hit.is_some() as u64)
+                .sum::<u64>()
+        };
+        let (a, b, r) = interleaved(9, cell, run);
+        println!(
+            "| full tracing, {name} view, {} rays: cell DDA (A) vs run DDA (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
+            rays.len(),
+            n / a,
+            n / b
+        );
+        let (a, b, r) = interleaved(9, cell, mm);
+        println!(
+            "| full tracing, {name} view: cell DDA (A) vs max-mip (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
+            n / a,
+            n / b
+        );
+    }
+}
+
+fn views(lo: f32, hi: f32) -> [(&'static str, Camera); 2] {
+    [
+        (
+            "camera",
+            Camera::new(
+                Vec3::new(20_000.0, 15_000.0, hi + 3_000.0),
+                Vec3::new(90_000.0, 100_000.0, lo),
+                60.0,
+                192,
+                128,
+            )
+            .unwrap(),
+        ),
+        (
+            "grazing",
+            Camera::new(
+                Vec3::new(2_000.0, 3_000.0, hi + 30.0),
+                Vec3::new(160_000.0, 150_000.0, hi + 10.0),
+                30.0,
+                192,
+                128,
+            )
+            .unwrap(),
+        ),
+    ]
+}
+
+fn table_bench(_c: &mut Criterion) {
+    table();
+}
+
+criterion_group!(benches, table_bench, traversal, tracing);
 criterion_main!(benches);

@@ -93,7 +93,7 @@ impl GridLine {
     /// `stop` are clamped into the grid. A zero direction visits the start cell only.
     ///
     /// Errors: [`Error::NonFiniteInput`] for NaN or infinite input, [`Error::TooSmall`] for a
-    /// grid without cells.
+    /// grid without cells, [`Error::SizeOverflow`] for more than `2^30` cells along an axis.
     ///
     /// ```
     /// use relief_core::ray::GridLine;
@@ -117,11 +117,15 @@ impl GridLine {
         if !stop.is_finite() {
             return Err(Error::NonFiniteInput { name: "stop" });
         }
-        if cells.x == 0 || cells.y == 0 || cells.x > (1 << 30) || cells.y > (1 << 30) {
+        if cells.x == 0 || cells.y == 0 {
             return Err(Error::TooSmall {
                 width: cells.x.saturating_add(1),
                 height: cells.y.saturating_add(1),
             });
+        }
+        // Keeps every fixed-point product below 2^63.
+        if cells.x > (1 << 30) || cells.y > (1 << 30) {
+            return Err(Error::SizeOverflow);
         }
         let ext = cells.as_dvec2();
         let start = start.clamp(DVec2::ZERO, ext);

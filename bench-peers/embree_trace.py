@@ -1,0 +1,131 @@
+"""Compare `relief trace` with Embree (PyPI embreex) on the same camera and the full-resolution
+triangulation of CONVENTIONS.md (cell (x, y) split along (x, y)-(x+1, y+1)).
+
+usage: embree_trace.py RELIEF_BIN RAW.f32 W H DX DY VIEW WxH METHOD ROUNDS
+
+RAW.f32 holds the heights in world units (make it with dem_to_raw.py; for the bundled Puget
+Sound PNG scale by 0.1 first or pass the PNG values and accept z in decimetres). VIEW is
+`camera` (oblique, from above a corner towards the centre, fov 60) or `grazing` (from just above
+the highest sample at one corner towards the far corner, fov 30). Runs `relief trace --threads 1 --surface triangles --method METHOD`
+and Embree's single-thread `scene.run` alternately ROUNDS times on the same rays (Embree's BVH
+is built by a first call that is not timed; vertices are camera-relative f32, as CI-NOTES.md
+advises). Prints one JSON object: rays, hits of each, the fraction of pixels that agree (both
+miss, or both hit with |t_relief - t_embree| <= 1e-4 t_embree), and medians of rays per second
+(relief's own `rays_per_s`, tracing only) with their ratio.
+
+Environment: python3 -m venv /tmp/venv-embree && /tmp/venv-embree/bin/pip install
+embreex==4.4.0.post1 numpy pillow
+"""
+import json
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+from embreex import rtcore_scene as rtcs
+from embreex.mesh_construction import TriangleMesh
+
+
+def camera_rays(eye, target, fov, w, h):
+    """CONVENTIONS.md camera: unit directions, row-major, row 0 at the top."""
+    f = target - eye
+    f /= np.linalg.norm(f)
+    r = np.cross(f, [0.0, 0.0, 1.0])
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    a = w / h
+    s = np.tan(np.radians(fov) / 2)
+    i = np.arange(w)
+    j = np.arange(h)
+    px = (2 * (i + 0.5) / w - 1) * a * s
+    py = (1 - 2 * (j + 0.5) / h) * s
+    d = f[None, None, :] + px[None, :, None] * r[None, None, :] + py[:, None, None] * u[None, None, :]
+    d /= np.linalg.norm(d, axis=2, keepdims=True)
+    return d.reshape(-1, 3)
+
+
+def view(name, z, dx, dy):
+    gh, gw = z.shape
+    ex, ey = (gw - 1) * dx, (gh - 1) * dy
+    lo, hi = float(z.min()), float(z.max())
+    size = max(ex, ey)
+    if name == "camera":
+        eye = np.array([0.12 * ex, 0.09 * ey, hi + 0.05 * size])
+        target = np.array([0.55 * ex, 0.6 * ey, lo])
+        return eye, target, 60.0
+    eye = np.array([0.01 * ex, 0.02 * ey, hi + 0.0002 * size])
+    target = np.array([ex, 0.93 * ey, hi - 0.0001 * size])
+    return eye, target, 30.0
+
+
+def fmt(v):
+    return ",".join(repr(float(x)) for x in v)
+
+
+def main():
+    (relief, raw, gw, gh, dx, dy, view_name, size, method, rounds) = sys.argv[1:11]
+    gw, gh, dx, dy, rounds = int(gw), int(gh), float(dx), float(dy), int(rounds)
+    w, h = (int(v) for v in size.lower().split("x"))
+    z = np.fromfile(raw, dtype="<f4").astype(np.float64).reshape(gh, gw)
+    eye, target, fov = view(view_name, z, dx, dy)
+    # relief reads the eye as f32: use exactly those values here too.
+    eye = eye.astype(np.float32).astype(np.float64)
+    target = target.astype(np.float32).astype(np.float64)
+    ys, xs = np.mgrid[0:gh, 0:gw]
+    verts = np.stack([xs * dx - eye[0], ys * dy - eye[1], z - eye[2]], axis=-1).reshape(-1, 3)
+    idx = (ys[:-1, :-1] * gw + xs[:-1, :-1]).reshape(-1)
+    tri = np.concatenate(
+        [
+            np.stack([idx, idx + 1, idx + gw + 1], axis=1),
+            np.stack([idx, idx + gw + 1, idx + gw], axis=1),
+        ]
+    )
+    scene = rtcs.EmbreeScene()
+    TriangleMesh(scene, verts.astype(np.float32)[tri])
+    dirs = camera_rays(eye, target, fov, w, h).astype(np.float32)
+    origins = np.zeros_like(dirs)
+    scene.run(origins, dirs, output=1)  # builds the BVH
+
+    out = tempfile.NamedTemporaryFile(suffix=".f32", delete=False).name
+    cmd = [
+        relief, "trace", "--dem", raw, "--format", "raw-f32", "--width", str(gw), "--height",
+        str(gh), "--dx", str(dx), "--dy", str(dy), "--eye", fmt(eye), "--target", fmt(target),
+        "--fov", str(fov), "--size", size,
+        "--method", method, "--surface", "triangles", "--threads", "1", "--out", out, "--json",
+    ]
+    relief_rps, embree_rps = [], []
+    res = None
+    for _ in range(rounds):
+        rj = json.loads(subprocess.run(cmd, check=True, capture_output=True).stdout)
+        relief_rps.append(rj["rays_per_s"])
+        t0 = time.perf_counter()
+        res = scene.run(origins, dirs, output=1)
+        embree_rps.append(len(dirs) / (time.perf_counter() - t0))
+    te = np.where(res["geomID"] >= 0, res["tfar"], np.inf).astype(np.float64)
+    tr = np.fromfile(out, dtype="<f4").astype(np.float64)
+    both = np.isfinite(te) & np.isfinite(tr)
+    diff = np.abs(np.where(both, tr, 0.0) - np.where(both, te, 0.0))
+    agree = (~np.isfinite(te) & ~np.isfinite(tr)) | (both & (diff <= 1e-4 * np.where(both, te, 1.0)))
+    rr, er = float(np.median(relief_rps)), float(np.median(embree_rps))
+    print(
+        json.dumps(
+            {
+                "dem": raw,
+                "view": view_name,
+                "rays": int(len(dirs)),
+                "method": method,
+                "relief_hits": int(np.isfinite(tr).sum()),
+                "embree_hits": int(np.isfinite(te).sum()),
+                "agree_fraction": float(agree.mean()),
+                "disagree": int((~agree).sum()),
+                "relief_rays_per_s": rr,
+                "embree_rays_per_s": er,
+                "relief_over_embree": rr / er,
+            }
+        )
+    )
+
+
+if __name__ == "__main__":
+    main()
