@@ -31,6 +31,8 @@ enum Command {
     Rbf(cmd::rbf::RbfArgs),
     /// Ray trace a DEM from a camera into a depth image (cell-dda, run-dda, maxmip, march).
     Trace(cmd::trace::TraceArgs),
+    /// Render a DEM to PNG on the GPU or CPU with named effects (lighting, shadows, fog, ...).
+    Render(cmd::render::RenderArgs),
 }
 
 /// A failure to report: one line, exit code 2.
@@ -79,6 +81,7 @@ fn main() -> ExitCode {
         Command::Report(a) => cmd::report::run(&a),
         Command::Rbf(a) => cmd::rbf::run(&a),
         Command::Trace(a) => cmd::trace::run(&a),
+        Command::Render(a) => cmd::render::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

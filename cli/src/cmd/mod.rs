@@ -4,5 +4,6 @@ pub mod info;
 pub mod mesh;
 pub mod mesh_tin;
 pub mod rbf;
+pub mod render;
 pub mod report;
 pub mod trace;

@@ -1,0 +1,559 @@
+//! `relief render`: render a DEM from a camera to a PNG (and optionally a depth image) on the
+//! GPU (relief-wgpu: max-mip or march ray casting, or SOAR refinement drawn by the mesh pass) or
+//! on the CPU (relief-core tracing, rows in parallel), with the effects named by `--effects`.
+//! JSON lists the passes run with their times.
+
+use crate::args::DemArgs;
+use crate::{print_out, CliError, CliResult};
+use clap::{Args, ValueEnum};
+use rayon::prelude::*;
+use relief_core::glam::Vec3;
+use relief_core::ray::{MarchOptions, MaxMip, Ray, RayTracer};
+use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner, View};
+use relief_core::{Camera, Heightfield, Surface, Terrain};
+use relief_wgpu::mesh::{depth_to_distance, MeshStyle};
+use relief_wgpu::{DepthTarget, Effect, MeshPass, Renderer, Scene};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Where to render.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Backend {
+    /// relief-wgpu on the first adapter wgpu finds (WGPU_BACKEND etc. apply).
+    Gpu,
+    /// relief-core on the CPU.
+    Cpu,
+}
+
+/// Rendering method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RenderMethod {
+    /// Maximum-mipmap ray casting (exact).
+    Maxmip,
+    /// Linear + binary search ray marching (approximate).
+    March,
+    /// Silhouette partitioning (seed 000): not implemented yet.
+    Silhouette,
+    /// View-dependent SOAR refinement drawn as triangles (GPU only).
+    Mesh,
+}
+
+/// Options of `relief render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    dem: DemArgs,
+    /// Eye position X,Y,Z in world units.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    eye: Vec3,
+    /// Point looked at X,Y,Z.
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    target: Vec3,
+    /// Vertical field of view in degrees.
+    #[arg(long, default_value_t = 60.0)]
+    fov: f32,
+    /// Image size WxH in pixels.
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Where to render.
+    #[arg(long, value_enum, default_value = "gpu")]
+    backend: Backend,
+    /// Rendering method.
+    #[arg(long, value_enum, default_value = "maxmip")]
+    method: RenderMethod,
+    /// Comma-separated effects: lighting, shadows, detail, deformations, fog, water, depth.
+    #[arg(long, value_name = "LIST", default_value = "")]
+    effects: String,
+    /// Screen-space error in pixels for `--method mesh`.
+    #[arg(long, value_name = "PX", default_value_t = 1.0)]
+    pixel_error: f32,
+    /// Frames to render; pass times are the median over them (the first frame's setup passes
+    /// are reported separately).
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    repeat: u32,
+    /// PNG image (8-bit RGBA).
+    #[arg(long, value_name = "PATH")]
+    out: PathBuf,
+    /// Depth image: little-endian f32, row-major, distance along the ray, +inf for a miss.
+    #[arg(long, value_name = "PATH")]
+    depth_out: Option<PathBuf>,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(format!("expected X,Y,Z, got '{s}'"));
+    }
+    let mut v = [0.0f32; 3];
+    for (o, p) in v.iter_mut().zip(&parts) {
+        *o = p
+            .trim()
+            .parse::<f32>()
+            .map_err(|_| format!("'{p}' is not a number"))?;
+        if !o.is_finite() {
+            return Err(format!("'{p}' is not finite"));
+        }
+    }
+    Ok(Vec3::from_array(v))
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WxH, got '{s}'"))?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width '{w}'"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height '{h}'"))?;
+    if w == 0 || h == 0 || (w as u64) * (h as u64) > 1 << 26 {
+        return Err(format!(
+            "image size {w}x{h} must be at least 1x1 and at most 2^26 pixels"
+        ));
+    }
+    Ok((w, h))
+}
+
+fn parse_effects(s: &str) -> CliResult<Vec<Effect>> {
+    let mut v = Vec::new();
+    for name in s.split(',').map(str::trim).filter(|n| !n.is_empty()) {
+        let e = Effect::parse(name).ok_or_else(|| {
+            let all: Vec<&str> = Effect::ALL.iter().map(|e| e.name()).collect();
+            CliError(format!(
+                "unknown effect '{name}' (known: {})",
+                all.join(", ")
+            ))
+        })?;
+        if !v.contains(&e) {
+            v.push(e);
+        }
+    }
+    v.sort();
+    Ok(v)
+}
+
+/// A rendered frame and what it cost.
+struct Rendered {
+    width: u32,
+    height: u32,
+    depth: Vec<f32>,
+    color: Vec<[u8; 4]>,
+    device: String,
+    setup: Vec<(String, f64)>,
+    passes: Vec<(String, f64)>,
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    if v.is_empty() {
+        0.0
+    } else {
+        v[v.len() / 2]
+    }
+}
+
+/// Per-pass medians over frames (each frame the same pass list).
+fn medians(frames: &[Vec<(String, f64)>]) -> Vec<(String, f64)> {
+    let Some(first) = frames.first() else {
+        return Vec::new();
+    };
+    (0..first.len())
+        .map(|k| {
+            let mut t: Vec<f64> = frames
+                .iter()
+                .filter_map(|f| f.get(k).map(|p| p.1))
+                .collect();
+            (first[k].0.clone(), median(&mut t))
+        })
+        .collect()
+}
+
+fn render_gpu(
+    hf: &Heightfield<'_, f32>,
+    camera: &Camera,
+    a: &RenderArgs,
+    effects: &[Effect],
+) -> CliResult<Rendered> {
+    let gpu = relief_wgpu::headless()?;
+    let device = format!("{} ({:?})", gpu.info.name, gpu.info.backend);
+    let (w, h) = a.size;
+    if a.method == RenderMethod::Mesh {
+        if let Some(e) = effects
+            .iter()
+            .find(|e| !matches!(e, Effect::Lighting | Effect::DepthOutput))
+        {
+            return Err(CliError(format!(
+                "effect '{}' is not available with --method mesh (lighting, depth are)",
+                e.name()
+            )));
+        }
+        let (hw, hh) = (hf.width(), hf.height());
+        let t0 = Instant::now();
+        let mut errors = vec![0u16; relief_core::refine::hierarchy_len(hw, hh)];
+        let hier = preprocess_compact(hf, &mut errors)?;
+        let setup = vec![("preprocess".to_string(), t0.elapsed().as_secs_f64() * 1e3)];
+        let view = View::new(camera, a.pixel_error)?;
+        let rf = Refiner::new(&hier, hf, Criterion::View(view))?;
+        let mut scratch = vec![0u64; scratch_len(hw, hh)];
+        let mut mesh = MeshPass::new(&gpu.device);
+        let target = DepthTarget::new(&gpu.device, w, h);
+        let lo = local_min(hf) + hf.scale().z_offset;
+        let (zmin, zmax) = (lo, lo + z_span(hf));
+        let style = MeshStyle::Terrain {
+            lighting: effects.contains(&Effect::Lighting),
+        };
+        let mut frames = Vec::new();
+        for _ in 0..a.repeat {
+            let t = Instant::now();
+            let c = rf.count(&mut scratch)?;
+            let mut verts = vec![[0.0f32; 3]; c.vertices];
+            let mut tris = vec![[0u32; 3]; c.triangles];
+            rf.triangles(&mut scratch, &mut verts, &mut tris)?;
+            let refine_ms = t.elapsed().as_secs_f64() * 1e3;
+            let t = Instant::now();
+            let idx: Vec<u32> = tris.into_iter().flatten().collect();
+            mesh.upload(&gpu.device, &gpu.queue, &verts, &idx);
+            let mut enc = gpu.device.create_command_encoder(&Default::default());
+            mesh.encode(
+                &gpu.queue,
+                &mut enc,
+                &target,
+                camera,
+                style,
+                (zmin, zmax),
+                true,
+            )?;
+            gpu.queue.submit([enc.finish()]);
+            gpu.device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| CliError(e.to_string()))?;
+            frames.push(vec![
+                ("refine".to_string(), refine_ms),
+                ("mesh".to_string(), t.elapsed().as_secs_f64() * 1e3),
+            ]);
+        }
+        let color = target.read_color(&gpu.device, &gpu.queue)?;
+        let d = target.read_depth(&gpu.device, &gpu.queue)?;
+        let depth = (0..h)
+            .flat_map(|j| (0..w).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                depth_to_distance(
+                    camera,
+                    relief_wgpu::scene::NEAR,
+                    i,
+                    j,
+                    d[(j * w + i) as usize],
+                )
+            })
+            .collect();
+        return Ok(Rendered {
+            width: w,
+            height: h,
+            depth,
+            color,
+            device,
+            setup,
+            passes: medians(&frames),
+        });
+    }
+    let method = match a.method {
+        RenderMethod::March => relief_wgpu::Method::march(),
+        _ => relief_wgpu::Method::MaxMip,
+    };
+    let mut scene = Scene::new().with_effects(effects).with_method(method);
+    if effects.contains(&Effect::Deformations) {
+        // Two craters in the middle of the map, a tenth and a twentieth of it across.
+        let (cw, ch) = (hf.width() as f32, hf.height() as f32);
+        let depth = 0.2 * z_span(hf).max(1.0);
+        scene = scene.with_craters(&[
+            relief_wgpu::terrain::Crater {
+                center: [0.5 * cw, 0.5 * ch],
+                radius: 0.1 * cw,
+                depth,
+            },
+            relief_wgpu::terrain::Crater {
+                center: [0.6 * cw, 0.4 * ch],
+                radius: 0.05 * cw,
+                depth,
+            },
+        ]);
+    }
+    if effects.contains(&Effect::Water) {
+        let s = *scene.shading();
+        let level = hf.scale().z_offset + local_min(hf) + 0.15 * z_span(hf);
+        scene = scene.with_shading(s.with_water_level(level));
+    }
+    let mut r = Renderer::new(&gpu.device, &gpu.queue, hf, scene)?;
+    let mut frames = Vec::new();
+    let mut setup = Vec::new();
+    let mut image = None;
+    for k in 0..a.repeat.max(1) {
+        let (img, times) = r.render_profiled(&gpu.device, &gpu.queue, camera)?;
+        let n_setup = if k == 0 {
+            r.scene().setup_passes().len()
+        } else {
+            0
+        };
+        let named: Vec<(String, f64)> = times
+            .iter()
+            .map(|t| (t.pass.as_str().to_string(), t.ms))
+            .collect();
+        if k == 0 {
+            setup = named[..n_setup].to_vec();
+        }
+        frames.push(named[n_setup..].to_vec());
+        image = Some(img);
+    }
+    let img = image.ok_or_else(|| CliError("no frame rendered".into()))?;
+    Ok(Rendered {
+        width: img.width,
+        height: img.height,
+        depth: img.depth,
+        color: img.color,
+        device,
+        setup,
+        passes: medians(&frames),
+    })
+}
+
+fn z_span(hf: &Heightfield<'_, f32>) -> f32 {
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for y in 0..hf.height() {
+        for x in 0..hf.width() {
+            let z = hf.local_z(x, y);
+            lo = lo.min(z);
+            hi = hi.max(z);
+        }
+    }
+    (hi - lo).max(0.0)
+}
+
+fn local_min(hf: &Heightfield<'_, f32>) -> f32 {
+    let mut lo = f32::INFINITY;
+    for y in 0..hf.height() {
+        for x in 0..hf.width() {
+            lo = lo.min(hf.local_z(x, y));
+        }
+    }
+    lo
+}
+
+/// The ray caster's colour ramp (shaders/raycast.wgsl `albedo`), for the CPU backend.
+fn albedo(s: f32) -> Vec3 {
+    let low = Vec3::new(0.25, 0.45, 0.2);
+    let mid = Vec3::new(0.55, 0.45, 0.3);
+    let high = Vec3::new(0.95, 0.95, 0.95);
+    let s = s.clamp(0.0, 1.0);
+    if s < 0.6 {
+        low.lerp(mid, s / 0.6)
+    } else {
+        mid.lerp(high, (s - 0.6) / 0.4)
+    }
+}
+
+fn render_cpu(
+    hf: &Heightfield<'_, f32>,
+    camera: &Camera,
+    a: &RenderArgs,
+    effects: &[Effect],
+) -> CliResult<Rendered> {
+    if let Some(e) = effects
+        .iter()
+        .find(|e| !matches!(e, Effect::Lighting | Effect::Shadows | Effect::Fog))
+    {
+        return Err(CliError(format!(
+            "effect '{}' needs --backend gpu (the CPU renders lighting, shadows, fog)",
+            e.name()
+        )));
+    }
+    if a.method == RenderMethod::Mesh {
+        return Err(CliError("--method mesh needs --backend gpu".into()));
+    }
+    let (w, h) = a.size;
+    let t0 = Instant::now();
+    let len =
+        MaxMip::len(hf.width(), hf.height()).ok_or_else(|| CliError("grid too small".into()))?;
+    let mut buf = vec![0.0f32; len];
+    let mip = MaxMip::build(hf, &mut buf)?;
+    let build_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let tracer = RayTracer::new(hf, Surface::Triangles);
+    let (zmin, zmax) = tracer.height_range();
+    let shading = relief_wgpu::raycast::Shading::default();
+    let sun = shading.sun.normalize();
+    let march = a.method == RenderMethod::March;
+    let opts = MarchOptions::default();
+    let trace = |ray: &Ray| -> Result<Option<relief_core::Hit>, String> {
+        if march {
+            Ok(tracer
+                .trace_march(ray, &opts)
+                .map_err(|e| e.to_string())?
+                .trace
+                .hit)
+        } else {
+            Ok(tracer
+                .trace_maxmip(ray, &mip)
+                .map_err(|e| e.to_string())?
+                .hit)
+        }
+    };
+    let (lit_on, shadows, fog) = (
+        effects.contains(&Effect::Lighting),
+        effects.contains(&Effect::Shadows),
+        effects.contains(&Effect::Fog),
+    );
+    let t1 = Instant::now();
+    let rows: Result<Vec<Vec<Pixel>>, String> = (0..h)
+        .into_par_iter()
+        .map(|j| {
+            (0..w)
+                .map(|i| {
+                    let (o, d) = camera.ray(i, j);
+                    let ray = Ray::new(o, d).map_err(|e| e.to_string())?;
+                    let sky = Vec3::new(0.55, 0.7, 0.9);
+                    let Some(hit) = trace(&ray)? else {
+                        return Ok((f32::INFINITY, rgba(sky)));
+                    };
+                    let local = hit.position.z as f32 - hf.scale().z_offset;
+                    let mut c = albedo((local - zmin) / (zmax - zmin).max(1e-6));
+                    let mut lit = 1.0;
+                    if shadows {
+                        let lift = 1e-3 * (zmax - zmin).max(1.0);
+                        let p = hit.position.as_vec3() + Vec3::new(0.0, 0.0, lift);
+                        let sray = Ray::new(p, sun).map_err(|e| e.to_string())?;
+                        if trace(&sray)?.is_some() {
+                            lit = 0.0;
+                        }
+                    }
+                    if lit_on {
+                        let diffuse = hit.normal.dot(sun).max(0.0) * lit;
+                        c *= shading.ambient + (1.0 - shading.ambient) * diffuse;
+                    } else if shadows {
+                        c *= 0.55 + 0.45 * lit;
+                    }
+                    if fog {
+                        let f = 1.0 - (-shading.fog_density * hit.t as f32).exp();
+                        c = c.lerp(shading.fog_color, f);
+                    }
+                    Ok((hit.t as f32, rgba(c)))
+                })
+                .collect()
+        })
+        .collect();
+    let rows = rows.map_err(CliError)?;
+    let trace_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let (depth, color) = rows.into_iter().flatten().unzip();
+    let mut setup = Vec::new();
+    if !march {
+        setup.push(("maxmip_build".to_string(), build_ms));
+    }
+    Ok(Rendered {
+        width: w,
+        height: h,
+        depth,
+        color,
+        device: format!("cpu ({} threads)", rayon::current_num_threads()),
+        setup,
+        passes: vec![("trace".to_string(), trace_ms)],
+    })
+}
+
+/// Depth and colour of one pixel.
+type Pixel = (f32, [u8; 4]);
+
+fn rgba(c: Vec3) -> [u8; 4] {
+    let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+    [q(c.x), q(c.y), q(c.z), 255]
+}
+
+fn write_png(path: &Path, w: u32, h: u32, color: &[[u8; 4]]) -> CliResult {
+    relief_io::write_atomic(path, |out| {
+        let mut enc = png::Encoder::new(out, w, h);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut wr = enc.write_header().map_err(std::io::Error::other)?;
+        wr.write_image_data(color.as_flattened())
+            .map_err(std::io::Error::other)?;
+        wr.finish().map_err(std::io::Error::other)
+    })?;
+    Ok(())
+}
+
+/// Runs `relief render`.
+pub fn run(a: &RenderArgs) -> CliResult {
+    let effects = parse_effects(&a.effects)?;
+    if a.method == RenderMethod::Silhouette {
+        return Err(CliError(
+            "--method silhouette (seed 000 silhouette partitioning) is not implemented yet".into(),
+        ));
+    }
+    if a.repeat == 0 {
+        return Err(CliError("--repeat must be at least 1".into()));
+    }
+    if !(a.pixel_error.is_finite() && a.pixel_error > 0.0) {
+        return Err(CliError("--pixel-error must be positive".into()));
+    }
+    let (w, h) = a.size;
+    let camera = Camera::new(a.eye, a.target, a.fov, w, h)?;
+    let (dem, _) = a.dem.load()?;
+    let hf: Heightfield<'_, f32> = dem.heightfield()?;
+    let r = match a.backend {
+        Backend::Gpu => render_gpu(&hf, &camera, a, &effects)?,
+        Backend::Cpu => render_cpu(&hf, &camera, a, &effects)?,
+    };
+    write_png(&a.out, r.width, r.height, &r.color)?;
+    if let Some(p) = &a.depth_out {
+        relief_io::write_raw_f32(p, &r.depth)?;
+    }
+    let hits = r.depth.iter().filter(|d| d.is_finite()).count();
+    let frame_ms: f64 = r.passes.iter().map(|p| p.1).sum();
+    let method = match a.method {
+        RenderMethod::Maxmip => "maxmip",
+        RenderMethod::March => "march",
+        RenderMethod::Silhouette => "silhouette",
+        RenderMethod::Mesh => "mesh",
+    };
+    let backend = match a.backend {
+        Backend::Gpu => "gpu",
+        Backend::Cpu => "cpu",
+    };
+    let names: Vec<&str> = effects.iter().map(|e| e.name()).collect();
+    if a.json {
+        let list = |v: &[(String, f64)]| -> Vec<serde_json::Value> {
+            v.iter()
+                .map(|(n, ms)| serde_json::json!({ "name": n, "ms": ms }))
+                .collect()
+        };
+        let v = serde_json::json!({
+            "width": r.width,
+            "height": r.height,
+            "backend": backend,
+            "device": r.device,
+            "method": method,
+            "effects": names,
+            "rays": r.width as u64 * r.height as u64,
+            "hits": hits,
+            "frames": a.repeat,
+            "setup_passes": list(&r.setup),
+            "passes": list(&r.passes),
+            "frame_ms": frame_ms,
+        });
+        print_out(&format!("{v}\n"))
+    } else {
+        let mut s = format!(
+            "rendered {}x{} with {method} on {} ({backend}), effects [{}]: {hits} of {} pixels hit\n",
+            r.width,
+            r.height,
+            r.device,
+            names.join(", "),
+            r.width as u64 * r.height as u64
+        );
+        for (n, ms) in &r.setup {
+            s.push_str(&format!("  setup {n:<14} {ms:9.2} ms\n"));
+        }
+        for (n, ms) in &r.passes {
+            s.push_str(&format!("  pass  {n:<14} {ms:9.2} ms\n"));
+        }
+        s.push_str(&format!("  frame total          {frame_ms:9.2} ms\n"));
+        print_out(&s)
+    }
+}
