@@ -20,10 +20,10 @@
 //! (whose corners are texel centres too whenever `delta` is at most the minimum cell size).
 //! Because `delta` is a power of two and every texel centre an integer multiple of it, sample
 //! positions lie on one global lattice and a camera move shifts the raster by whole texels. A
-//! fresh fit takes the smallest `delta` that covers the widened box grown by `headroom` of its
-//! extent plus one minimum cell on every side; with the previous frame's fit passed in, its
+//! fresh fit takes the smallest `delta` that covers the widened box grown by one minimum cell
+//! plus `headroom` texels on every side; with the previous frame's fit passed in, its
 //! spacing is kept while it still covers the box and is at most twice the fresh choice
-//! (hysteresis). The spacing then changes only after the box has grown by the headroom or
+//! (hysteresis). The spacing then changes only after the box has outgrown the headroom or
 //! shrunk to about a quarter, which a sub-texel camera move does not do. (Deviation from the
 //! paper, which scales the widened box into the texture exactly: quantising the spacing trades
 //! up to half the texture's resolution for positions that never drift; see HARD_CASES.md.)
@@ -47,7 +47,7 @@ pub const CASCADES: usize = 3;
 /// ```
 /// assert!(relief_core::rbf::MAX_POLYGON >= 22);
 /// ```
-pub const MAX_POLYGON: usize = 64;
+pub const MAX_POLYGON: usize = MAX_CANDIDATES + 2;
 
 /// Most candidate vertices of the frustum-box intersection: 8 + 8 corners, 72 + 72 edge-plane
 /// crossings.
@@ -61,8 +61,8 @@ const SPACING_EXP: (i32, i32) = (-16, 20);
 /// Defaults: `resolution = 1024` texels per side, `overlap = 0.05` (far planes of the first two
 /// cascades pushed out by 5 % of their depth), `near = None` (the frustum's near plane at
 /// `far / 1000`; `far` is always the distance along the view to the farthest corner of the
-/// heightfield's bounding box), `headroom = 0.125` (a fresh fit leaves 12.5 % of the box's
-/// extent spare on every side).
+/// heightfield's bounding box), `headroom = 32` (a fresh fit leaves one minimum cell plus 32
+/// texels spare on every side).
 ///
 /// ```
 /// use relief_core::rbf::CascadeOptions;
@@ -78,9 +78,10 @@ pub struct CascadeOptions {
     pub overlap: f32,
     /// Near plane distance of the frustum in world units (default `None`: `far / 1000`).
     pub near: Option<f32>,
-    /// Spare room a fresh fit leaves around each cascade box, as a fraction of its extent per
-    /// side, in `[0, 1]` (default 0.125), so that small camera moves do not outgrow the raster.
-    pub headroom: f32,
+    /// Spare texels a fresh fit leaves on every side of each cascade box, beyond one minimum
+    /// cell, so that small camera moves do not outgrow the raster (default 32; at most
+    /// `resolution / 8` is used).
+    pub headroom: u32,
 }
 
 impl Default for CascadeOptions {
@@ -89,7 +90,7 @@ impl Default for CascadeOptions {
             resolution: 1024,
             overlap: 0.05,
             near: None,
-            headroom: 0.125,
+            headroom: 32,
         }
     }
 }
@@ -129,24 +130,18 @@ impl CascadeOptions {
         self
     }
 
-    /// Returns the options with `headroom` (default 0.125).
+    /// Returns the options with `headroom` spare texels per side (default 32).
     ///
     /// ```
-    /// assert_eq!(relief_core::rbf::CascadeOptions::default().with_headroom(0.0).headroom, 0.0);
+    /// assert_eq!(relief_core::rbf::CascadeOptions::default().with_headroom(8).headroom, 8);
     /// ```
     #[must_use]
-    pub fn with_headroom(mut self, headroom: f32) -> Self {
+    pub fn with_headroom(mut self, headroom: u32) -> Self {
         self.headroom = headroom;
         self
     }
 
     fn validate(&self) -> Result<(), Error> {
-        if !(self.headroom.is_finite() && (0.0..=1.0).contains(&self.headroom)) {
-            return Err(Error::InvalidParameter {
-                name: "headroom",
-                value: self.headroom,
-            });
-        }
         if !(2..=16384).contains(&self.resolution) {
             return Err(Error::InvalidParameter {
                 name: "resolution",
@@ -545,7 +540,10 @@ pub fn fit_cascades(
             bl,
             bh,
             options.resolution,
-            (f64::from(options.headroom), min_cell),
+            (
+                f64::from(options.headroom.min(options.resolution / 8)),
+                min_cell,
+            ),
             prev,
         );
         c.spacing = spacing;
@@ -580,10 +578,10 @@ fn fits(bl: DVec2, bh: DVec2, t: u32, d: f64) -> Option<[i64; 2]> {
     (last.x >= bh.x && last.y >= bh.y).then_some([o.x as i64, o.y as i64])
 }
 
-/// Smallest power-of-two spacing (within [`SPACING_EXP`]) whose raster covers `[bl, bh]`, and
-/// that raster's origin.
-fn smallest_fit(bl: DVec2, bh: DVec2, t: u32) -> (f64, [i64; 2]) {
-    let extent = (bh - bl).max_element().max(0.0);
+/// Smallest power-of-two spacing `d` (within [`SPACING_EXP`]) whose raster covers `[bl, bh]`
+/// grown by `cell + headroom * d` on every side, and that raster's origin.
+fn smallest_fit(bl: DVec2, bh: DVec2, t: u32, cell: f64, headroom: f64) -> (f64, [i64; 2]) {
+    let extent = (bh - bl).max_element().max(0.0) + 2.0 * cell;
     let guess = libm::ceil(libm::log2(extent / f64::from(t - 1)));
     let start = if guess.is_finite() {
         (guess as i32)
@@ -594,10 +592,11 @@ fn smallest_fit(bl: DVec2, bh: DVec2, t: u32) -> (f64, [i64; 2]) {
         SPACING_EXP.0
     };
     let mut best = (libm::ldexp(1.0, SPACING_EXP.1), [0i64, 0]);
-    // The guess is within one of the answer; scan a bounded range upwards.
+    // At most SPACING_EXP.1 - SPACING_EXP.0 + 1 = 37 tries.
     for e in start..=SPACING_EXP.1 {
         let d = libm::ldexp(1.0, e);
-        if let Some(o) = fits(bl, bh, t, d) {
+        let g = DVec2::splat(cell + headroom * d);
+        if let Some(o) = fits(bl - g, bh + g, t, d) {
             best = (d, o);
             break;
         }
@@ -607,10 +606,11 @@ fn smallest_fit(bl: DVec2, bh: DVec2, t: u32) -> (f64, [i64; 2]) {
 
 /// The spacing and origin of a cascade raster for the widened box `[bl, bh]`.
 ///
-/// A fresh fit takes the smallest power of two that covers the box grown by `headroom` of its
-/// extent plus one minimum cell on every side. A previous spacing is kept while it covers the
-/// box itself and is at most twice the fresh choice, so the spacing changes only after the box
-/// has grown by the headroom or shrunk to about a quarter.
+/// A fresh fit takes the smallest power of two that covers the box grown by one minimum cell
+/// plus `headroom` texels on every side (widening to whole cells makes the box jump by up to a
+/// cell on a tiny move). A previous spacing is kept while it covers the box itself and is at
+/// most twice the fresh choice, so the spacing changes only after the box has outgrown the
+/// headroom or shrunk to about a quarter.
 fn snap(
     bl: DVec2,
     bh: DVec2,
@@ -618,10 +618,7 @@ fn snap(
     (headroom, min_cell): (f64, f64),
     previous: Option<f32>,
 ) -> (f32, [i64; 2]) {
-    // Widening to whole cells makes the box jump by up to one cell per side on a tiny move, so
-    // the spare room is one cell plus the headroom fraction.
-    let grow = DVec2::splat((bh - bl).max_element().max(0.0) * headroom + min_cell);
-    let fresh = smallest_fit(bl - grow, bh + grow, t);
+    let fresh = smallest_fit(bl, bh, t, min_cell, headroom);
     let mut best = (fresh.0, fits(bl, bh, t, fresh.0).unwrap_or(fresh.1));
     if let Some(p) = previous {
         let p = f64::from(p);
@@ -763,13 +760,31 @@ fn visible_hull(
             }
         }
     }
-    let pts = pts.get_mut(..len).unwrap_or(&mut []);
-    convex_hull(pts, scale * scale * 1e-12, out)
+    // Merge near-duplicates (the same vertex found as a corner and as a crossing), so that the
+    // hull can use an exact turn test: a tolerance on the turn would drop extreme points of
+    // nearly collinear runs whose sort order rounding has flipped (measured: the far box corner
+    // vanished for one camera and reappeared 0.4 units away).
+    let tol2 = (scale * 1e-9) * (scale * 1e-9);
+    let mut unique = 0usize;
+    for k in 0..len {
+        let Some(&p) = pts.get(k) else { break };
+        let seen = pts
+            .get(..unique)
+            .is_some_and(|u| u.iter().any(|q| q.distance_squared(p) <= tol2));
+        if !seen {
+            if let Some(slot) = pts.get_mut(unique) {
+                *slot = p;
+                unique += 1;
+            }
+        }
+    }
+    let pts = pts.get_mut(..unique).unwrap_or(&mut []);
+    convex_hull(pts, out)
 }
 
-/// Andrew's monotone chain: counter-clockwise hull without collinear points (cross product at
-/// most `eps` counts as collinear). Returns the hull length written to `out`.
-fn convex_hull(pts: &mut [DVec2], eps: f64, out: &mut [DVec2; MAX_CANDIDATES + 1]) -> usize {
+/// Andrew's monotone chain: counter-clockwise hull, popping points that do not turn left
+/// (exact test, no tolerance). Returns the hull length written to `out`.
+fn convex_hull(pts: &mut [DVec2], out: &mut [DVec2; MAX_CANDIDATES + 1]) -> usize {
     // Insertion sort by (x, y): at most MAX_CANDIDATES^2 / 2 steps, and unlike the standard
     // sorts it has no panic path for the compiler to keep.
     for k in 1..pts.len() {
@@ -805,7 +820,7 @@ fn convex_hull(pts: &mut [DVec2], eps: f64, out: &mut [DVec2; MAX_CANDIDATES + 1
             let (Some(&o), Some(&a)) = (out.get(k - 2), out.get(k - 1)) else {
                 break;
             };
-            if cross(o, a, *p) <= eps {
+            if cross(o, a, *p) <= 0.0 {
                 k -= 1;
             } else {
                 break;
