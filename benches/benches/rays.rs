@@ -52,6 +52,58 @@ fn slope_lines(len: f64) -> Vec<GridLine> {
         .collect()
 }
 
+/// The textbook floating-point Amanatides & Woo loop (f64 `tMax` / `tDelta`), as a second
+/// baseline: bench-only code, not in the library (the library's cell DDA is exact fixed point).
+fn walk_float_aw(rays: &[(DVec2, DVec2)]) -> u64 {
+    let mut acc = 0u64;
+    for &(s, d) in rays {
+        let (mut x, mut y) = (s.x.floor() as i64, s.y.floor() as i64);
+        let (sx, sy) = (
+            if d.x >= 0.0 { 1 } else { -1 },
+            if d.y >= 0.0 { 1 } else { -1 },
+        );
+        let next = |c: i64, st: i64| (c + i64::from(st > 0)) as f64;
+        let (ddx, ddy) = (1.0 / d.x.abs(), 1.0 / d.y.abs());
+        let mut tx = if d.x != 0.0 {
+            (next(x, sx) - s.x) / d.x
+        } else {
+            f64::INFINITY
+        };
+        let mut ty = if d.y != 0.0 {
+            (next(y, sy) - s.y) / d.y
+        } else {
+            f64::INFINITY
+        };
+        let n = N as i64;
+        while x >= 0 && y >= 0 && x < n && y < n {
+            acc = acc.wrapping_add((x ^ y) as u64);
+            if tx < ty {
+                x += sx;
+                tx += ddx;
+            } else if ty < tx {
+                y += sy;
+                ty += ddy;
+            } else {
+                x += sx;
+                y += sy;
+                tx += ddx;
+                ty += ddy;
+            }
+        }
+    }
+    acc
+}
+
+fn orientation_rays(n: usize) -> Vec<(DVec2, DVec2)> {
+    let c = DVec2::new(512.37, 511.71);
+    (0..n)
+        .map(|i| {
+            let a = (i as f64 + 0.5) / n as f64 * std::f64::consts::TAU;
+            (c, DVec2::new(a.cos(), a.sin()))
+        })
+        .collect()
+}
+
 fn walk_cells(lines: &[GridLine]) -> u64 {
     let mut acc = 0u64;
     for l in lines {
@@ -202,7 +254,7 @@ fn table() {
     println!("|---|---|---|---|");
     let lines = orientation_lines(256);
     let cells: u64 = lines.iter().map(|l| l.cells().count() as u64).sum();
-    let rep = 20;
+    let rep = 100;
     let (a, b, r) = interleaved(
         15,
         || (0..rep).map(|_| walk_cells(black_box(&lines))).sum(),
@@ -211,6 +263,17 @@ fn table() {
     let per = (rep as u64 * cells) as f64;
     println!(
         "| traversal, 256 orientations ({cells} cells): cell DDA (A) vs run DDA (B) | {:.2} ns/cell | {:.2} ns/cell | {r:.2} |",
+        a / per * 1e9,
+        b / per * 1e9
+    );
+    let frays = orientation_rays(256);
+    let (a, b, r) = interleaved(
+        15,
+        || (0..rep).map(|_| walk_float_aw(black_box(&frays))).sum(),
+        || (0..rep).map(|_| walk_runs(black_box(&lines))).sum(),
+    );
+    println!(
+        "| traversal, 256 orientations: textbook f64 Amanatides & Woo (A, bench-only) vs run DDA (B) | {:.2} ns/cell | {:.2} ns/cell | {r:.2} |",
         a / per * 1e9,
         b / per * 1e9
     );

@@ -21,6 +21,8 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Debug diagrams of what the algorithms did (refine, dda, silhouette, rbf, cascades) as PNG.
+    Diagram(cmd::diagram::DiagramArgs),
     /// Print size and height statistics of a DEM.
     Info(cmd::info::InfoArgs),
     /// SOAR refinement of a DEM into an OBJ mesh (view-independent or view-dependent).
@@ -76,6 +78,7 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
+        Command::Diagram(a) => cmd::diagram::run(&a),
         Command::Info(a) => cmd::info::run(&a),
         Command::Mesh(a) => cmd::mesh::run(&a),
         Command::Report(a) => cmd::report::run(&a),

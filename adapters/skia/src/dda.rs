@@ -163,27 +163,29 @@ pub fn runs(spec: &DdaSpec) -> Result<Vec<RunInfo>, DiagramError> {
             Some(p) => p[major] == first[major],
             None => false,
         };
-        let length8 = run.len - u32::from(extended && run.len > 1);
+        // A last run cut right after its extension cell has no 8-connected cell: length 0.
+        let length8 = run.len - u32::from(extended);
         let kind = if dv == 0.0 {
             RunKind::Axis
         } else if length8 == r + 1 {
             RunKind::Long
         } else if length8 == r {
             RunKind::Short
-        } else if (j == 0 || j + 1 == n) && length8 < r {
-            RunKind::Truncated
         } else {
-            // Cannot happen for a digital line; drawn as truncated rather than hidden.
+            // Only the first and last runs can be shorter: cut by the segment's ends.
             RunKind::Truncated
         };
-        let c8 = run.cell(u32::from(extended)).unwrap_or(first);
-        // Entry face of the first 8-connected cell along the direction of travel.
-        let face = if du >= 0.0 {
-            f64::from(c8[major])
+        // Entry face, along the direction of travel, of the first 8-connected cell (which may
+        // lie past the segment's end); for the first run, the start point itself.
+        let m8 = i64::from(first[major]) + if extended { i64::from(run.step) } else { 0 };
+        let face = if j == 0 {
+            su
+        } else if du >= 0.0 {
+            m8 as f64
         } else {
-            f64::from(c8[major]) + 1.0
+            m8 as f64 + 1.0
         };
-        let row = f64::from(c8[minor]);
+        let row = f64::from(first[minor]);
         let v = sv + dv / du * (face - su);
         let beta = if dv >= 0.0 { v - row } else { row + 1.0 - v };
         let label = if exact {
@@ -259,7 +261,9 @@ pub fn dda(spec: &DdaSpec, opts: &DiagramOptions<'_>) -> Result<Pixmap, DiagramE
     let (y0, y1) = pad(lo[1], hi[1], spec.cells[1]);
     let (ww, wh) = ((x1 - x0) as f32, (y1 - y0) as f32);
     let gap = (ww * 0.08).max(1.0);
-    let head = wh * 0.12 + 1.0;
+    // Room for the panel titles: about 26 pixels.
+    let scale0 = 2.0 * opts.max_size as f32 / (2.0 * ww + gap).max(wh);
+    let head = 26.0 / scale0.max(1e-3);
     let r = if spec.dir.x.abs() >= spec.dir.y.abs() {
         spec.dir.x.abs() / spec.dir.y.abs()
     } else {
@@ -307,7 +311,7 @@ pub fn dda(spec: &DdaSpec, opts: &DiagramOptions<'_>) -> Result<Pixmap, DiagramE
         },
     )?;
     let px = c.scale();
-    let font = (px * 0.45).clamp(7.0, 13.0);
+    let font = (px * 0.55).clamp(7.0, 14.0);
     let panels = [0.0f32, ww + gap];
     // Local units of a grid cell in panel `p`.
     let at = |p: usize, x: f32, y: f32| [panels[p] + x - x0 as f32, y - y0 as f32];
@@ -319,12 +323,14 @@ pub fn dda(spec: &DdaSpec, opts: &DiagramOptions<'_>) -> Result<Pixmap, DiagramE
         };
         c.label([ox, wh + head * 0.8], title, LABEL + 1.0, BLACK);
     }
+    // Labels are drawn last, over the grid and the ray.
+    let mut labels: Vec<([f32; 2], String, f32)> = Vec::new();
     // Left: visited cells in order.
     for (k, cell) in cells.iter().enumerate() {
         let (x, y) = (cell[0] as f32, cell[1] as f32);
         c.fill_rect(at(0, x, y), at(0, x + 1.0, y + 1.0), rgba(SKY_BLUE, 0.75));
         if px >= 14.0 && cells.len() <= 999 {
-            c.label_centered(at(0, x + 0.5, y + 0.5), &k.to_string(), font * 0.9, BLACK);
+            labels.push((at(0, x + 0.5, y + 0.5), k.to_string(), font * 0.9));
         }
     }
     // Right: runs.
@@ -344,14 +350,14 @@ pub fn dda(spec: &DdaSpec, opts: &DiagramOptions<'_>) -> Result<Pixmap, DiagramE
             (a[1] + b[1]) as f32 / 2.0 + 0.5,
         ];
         if px >= 10.0 {
-            c.label_centered(at(1, mid[0], mid[1]), &r.length8.to_string(), font, BLACK);
+            labels.push((at(1, mid[0], mid[1]), r.length8.to_string(), font));
             let c8 = r.run.cell(u32::from(r.extended)).unwrap_or(a);
             let (lx, ly) = if r.run.along_y {
                 (c8[0] as f32 - 0.9, c8[1] as f32 + 0.5)
             } else {
                 (c8[0] as f32 + 0.5, c8[1] as f32 + 1.45)
             };
-            c.label_centered(at(1, lx, ly), &r.intercept_label, font * 0.85, BLACK);
+            labels.push((at(1, lx, ly), r.intercept_label.clone(), font * 0.85));
         }
     }
     // Grids, outlines and the ray on both panels.
@@ -395,6 +401,9 @@ pub fn dda(spec: &DdaSpec, opts: &DiagramOptions<'_>) -> Result<Pixmap, DiagramE
             false,
         );
         c.dot(at(p, s[0], s[1]), 3.5, rgba(BLACK, 1.0));
+    }
+    for (p, t, size) in &labels {
+        c.label_centered(*p, t, *size, BLACK);
     }
     Ok(c.finish())
 }

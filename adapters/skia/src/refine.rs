@@ -135,11 +135,7 @@ pub struct RefineState {
 /// Vertices and triangles of one refinement.
 type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>);
 
-fn mesh<T: Terrain>(
-    h: &Hierarchy<'_>,
-    t: &T,
-    criterion: Criterion,
-) -> Result<Mesh, DiagramError> {
+fn mesh<T: Terrain>(h: &Hierarchy<'_>, t: &T, criterion: Criterion) -> Result<Mesh, DiagramError> {
     let (w, hh) = (t.width(), t.height());
     let r = Refiner::new(h, t, criterion)?;
     let mut scratch = vec![0u64; scratch_len(w, hh)];

@@ -139,7 +139,7 @@ fn figure6_runs_match_the_paper() {
 fn golden_dda_figure6() {
     let p = dda(
         &DdaSpec::seed001_figure6(),
-        &DiagramOptions::default().with_max_size(500),
+        &DiagramOptions::default().with_max_size(800),
     )
     .unwrap();
     check("dda_figure6", &p);
@@ -397,5 +397,63 @@ fn lazy_accepted_vertices_come_from_the_core() {
             .vertices
             .iter()
             .any(|v| v[0] as u32 == g[0] && v[1] as u32 == g[1] && hf.width() > g[0]));
+    }
+}
+
+#[test]
+fn intercepts_and_lengths_are_consistent_in_every_octant() {
+    for (k, &(dx, dy)) in [
+        (41.0, 17.0),
+        (-41.0, 17.0),
+        (41.0, -17.0),
+        (-3.0, -7.0),
+        (7.0, -3.0),
+        (2.0, 9.0),
+        (-0.37, 0.91),
+        (5.0, 1.0),
+    ]
+    .iter()
+    .enumerate()
+    {
+        let start = DVec2::new(12.3 + k as f64 * 0.11, 9.7 - k as f64 * 0.07);
+        let spec = DdaSpec {
+            start,
+            dir: DVec2::new(dx, dy),
+            stop: start + DVec2::new(dx, dy) * 100.0,
+            cells: [25, 20],
+        };
+        let r = runs(&spec).unwrap();
+        let line = spec.line().unwrap();
+        let n_cells = line.cells().count() as u32;
+        assert_eq!(r.iter().map(|x| x.run.len).sum::<u32>(), n_cells);
+        let major = if dx.abs() >= dy.abs() {
+            dx.abs()
+        } else {
+            dy.abs()
+        };
+        let minor = if dx.abs() >= dy.abs() {
+            dy.abs()
+        } else {
+            dx.abs()
+        };
+        let rr = (major / minor).floor() as u32;
+        for (j, x) in r.iter().enumerate() {
+            assert!(
+                (0.0..1.0).contains(&x.intercept),
+                "{dx},{dy} run {j}: {x:?}"
+            );
+            let inner = j > 0 && j + 1 < r.len();
+            if inner {
+                assert!(x.extended, "{dx},{dy} run {j}");
+                assert!(matches!(x.kind, RunKind::Short | RunKind::Long), "{x:?}");
+                // Paper: long exactly when beta_j < nu = 1 - alpha r.
+                let nu = 1.0 - minor / major * rr as f64;
+                assert_eq!(
+                    x.kind == RunKind::Long,
+                    x.intercept < nu - 1e-9,
+                    "{dx},{dy} {x:?}"
+                );
+            }
+        }
     }
 }

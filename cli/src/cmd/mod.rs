@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod diagram;
 pub mod info;
 pub mod mesh;
 pub mod mesh_tin;

@@ -42,6 +42,23 @@ fn dim(n: u32, k: u32) -> u32 {
     ((n - 1) >> k) + 1
 }
 
+/// Index of node `(x, y)` in a level `w` nodes wide, stored in 4 x 4 tiles (64 bytes, one cache
+/// line): a node's children and its neighbours usually share a line with it.
+#[inline]
+fn tiled(w: u32, x: u32, y: u32) -> usize {
+    let tiles_x = (w as usize).div_ceil(4);
+    (((y >> 2) as usize * tiles_x + (x >> 2) as usize) << 4) + (((y & 3) << 2) | (x & 3)) as usize
+}
+
+/// Elements of a level of `w x h` nodes (padded to whole tiles).
+#[inline]
+fn level_len(w: u32, h: u32) -> Option<usize> {
+    (w as usize)
+        .div_ceil(4)
+        .checked_mul((h as usize).div_ceil(4))?
+        .checked_mul(16)
+}
+
 /// Number of levels and their offsets for `nx x ny` cells; `None` on overflow.
 fn layout(nx: u32, ny: u32) -> Option<(u32, [usize; MAX_LEVELS], usize)> {
     let mut offsets = [0usize; MAX_LEVELS];
@@ -50,7 +67,7 @@ fn layout(nx: u32, ny: u32) -> Option<(u32, [usize; MAX_LEVELS], usize)> {
     loop {
         *offsets.get_mut(k as usize)? = total;
         let (w, h) = (dim(nx, k), dim(ny, k));
-        total = total.checked_add((w as usize).checked_mul(h as usize)?)?;
+        total = total.checked_add(level_len(w, h)?)?;
         k += 1;
         if (w == 1 && h == 1) || k as usize >= MAX_LEVELS {
             break;
@@ -67,12 +84,15 @@ fn cells_of(width: u32, height: u32) -> Result<(u32, u32), Error> {
 }
 
 impl<'a> MaxMip<'a> {
-    /// Elements of storage for a `width x height` sample grid (about `4/3` of the cell count);
-    /// `None` for a grid smaller than 2 x 2 or on overflow.
+    /// Elements of storage for a `width x height` sample grid: about `4/3` of the cell count,
+    /// each level padded to whole 4 x 4 tiles (levels are stored tile by tile, one 64-byte cache
+    /// line per tile); `None` for a grid smaller than 2 x 2 or on overflow.
     ///
     /// ```
-    /// // 4 x 4 cells: 16 + 4 + 1.
-    /// assert_eq!(relief_core::ray::MaxMip::len(5, 5), Some(21));
+    /// // 4 x 4 cells: one tile per level, three levels (4 x 4, 2 x 2, 1 x 1).
+    /// assert_eq!(relief_core::ray::MaxMip::len(5, 5), Some(48));
+    /// // 1024 x 1024 cells: 1024^2 + 512^2 + ... + 4^2 + 3 padded tiles.
+    /// assert_eq!(relief_core::ray::MaxMip::len(1025, 1025), Some(1398128));
     /// ```
     #[must_use]
     pub fn len(width: u32, height: u32) -> Option<usize> {
@@ -86,7 +106,7 @@ impl<'a> MaxMip<'a> {
     /// ```
     /// use relief_core::{ray::MaxMip, Heightfield};
     /// let hf = Heightfield::new(&[1u16, 2, 3, 9], 2, 2).unwrap();
-    /// let mut buf = [0.0f32; 1];
+    /// let mut buf = [0.0f32; 16];
     /// assert_eq!(MaxMip::build(&hf, &mut buf).unwrap().max(), 9.0);
     /// ```
     pub fn build<T: Terrain>(terrain: &T, buf: &'a mut [f32]) -> Result<MaxMip<'a>, Error> {
@@ -100,7 +120,7 @@ impl<'a> MaxMip<'a> {
     /// ```
     /// use relief_core::{ray::MaxMip, Heightfield};
     /// let hf = Heightfield::new(&[1u16, 2, 3, 9], 2, 2).unwrap();
-    /// let mut buf = [0.0f32; 1];
+    /// let mut buf = [0.0f32; 16];
     /// MaxMip::build(&hf, &mut buf).unwrap();
     /// assert_eq!(MaxMip::view(&buf, 2, 2).unwrap().max(), 9.0);
     /// assert!(MaxMip::view(&buf, 3, 3).is_err());
@@ -163,7 +183,7 @@ impl<'a> MaxMip<'a> {
         for y in cy0..=cy1 {
             for x in cx0..=cx1 {
                 let c = terrain.cell_corners(x, y);
-                if let Some(v) = buf.get_mut(y as usize * nx as usize + x as usize) {
+                if let Some(v) = buf.get_mut(tiled(nx, x, y)) {
                     *v = c[0].max(c[1]).max(c[2]).max(c[3]);
                 }
             }
@@ -180,11 +200,11 @@ impl<'a> MaxMip<'a> {
                     for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
                         let (px, py) = (2 * x + dx, 2 * y + dy);
                         if px < pw && py < ph {
-                            let i = prev + py as usize * pw as usize + px as usize;
+                            let i = prev + tiled(pw, px, py);
                             m = m.max(buf.get(i).copied().unwrap_or(f32::NEG_INFINITY));
                         }
                     }
-                    if let Some(v) = buf.get_mut(cur + y as usize * lw as usize + x as usize) {
+                    if let Some(v) = buf.get_mut(cur + tiled(lw, x, y)) {
                         *v = m;
                     }
                 }
@@ -196,7 +216,7 @@ impl<'a> MaxMip<'a> {
     /// Number of levels (level 0 = cells).
     ///
     /// ```
-    /// assert_eq!(relief_core::ray::MaxMip::view(&[0.0; 21], 5, 5).unwrap().levels(), 3);
+    /// assert_eq!(relief_core::ray::MaxMip::view(&[0.0; 48], 5, 5).unwrap().levels(), 3);
     /// ```
     #[must_use]
     pub fn levels(&self) -> u32 {
@@ -206,7 +226,10 @@ impl<'a> MaxMip<'a> {
     /// The maximum local height over the whole grid (the top node).
     ///
     /// ```
-    /// assert_eq!(relief_core::ray::MaxMip::view(&[1.0, 2.0, 3.0, 4.0, 4.0], 3, 3).unwrap().max(), 4.0);
+    /// use relief_core::{ray::MaxMip, Heightfield};
+    /// let hf = Heightfield::new(&[0u16, 1, 2, 3, 4, 5, 6, 7, 8], 3, 3).unwrap();
+    /// let mut buf = vec![0.0; MaxMip::len(3, 3).unwrap()];
+    /// assert_eq!(MaxMip::build(&hf, &mut buf).unwrap().max(), 8.0);
     /// ```
     #[must_use]
     pub fn max(&self) -> f32 {
@@ -216,8 +239,12 @@ impl<'a> MaxMip<'a> {
     /// Maximum of node `(x, y)` of `level` (`-inf` outside).
     ///
     /// ```
-    /// let m = relief_core::ray::MaxMip::view(&[1.0, 2.0, 3.0, 4.0, 4.0], 3, 3).unwrap();
-    /// assert_eq!((m.node(0, 1, 0), m.node(1, 0, 0), m.node(0, 5, 5)), (2.0, 4.0, f32::NEG_INFINITY));
+    /// use relief_core::{ray::MaxMip, Heightfield};
+    /// let hf = Heightfield::new(&[0u16, 1, 2, 3, 4, 5, 6, 7, 8], 3, 3).unwrap();
+    /// let mut buf = vec![0.0; MaxMip::len(3, 3).unwrap()];
+    /// let m = MaxMip::build(&hf, &mut buf).unwrap();
+    /// // Cell (1, 0) has corners 1, 2, 4, 5.
+    /// assert_eq!((m.node(0, 1, 0), m.node(1, 0, 0), m.node(0, 5, 5)), (5.0, 8.0, f32::NEG_INFINITY));
     /// ```
     #[must_use]
     pub fn node(&self, level: u32, x: u32, y: u32) -> f32 {
@@ -227,7 +254,7 @@ impl<'a> MaxMip<'a> {
         }
         let off = self.offsets.get(level as usize).copied().unwrap_or(0);
         self.data
-            .get(off + y as usize * w as usize + x as usize)
+            .get(off + tiled(w, x, y))
             .copied()
             .unwrap_or(f32::NEG_INFINITY)
     }
@@ -236,7 +263,7 @@ impl<'a> MaxMip<'a> {
     /// level, plus two per level (about `4 (width + height)`).
     ///
     /// ```
-    /// let m = relief_core::ray::MaxMip::view(&[0.0; 21], 5, 5).unwrap();
+    /// let m = relief_core::ray::MaxMip::view(&[0.0; 48], 5, 5).unwrap();
     /// assert_eq!(m.step_bound(), 2 * ((4 + 4) + (2 + 2) + (1 + 1)) + 2 * 3 + 2);
     /// ```
     #[must_use]
@@ -321,16 +348,14 @@ impl<T: Terrain> RayTracer<'_, T> {
             if descend {
                 lvl -= 1;
                 t = ta;
-                let cs = (1i64 << lvl) as f64;
+                // 1 / 2^lvl is exact; truncation equals floor after the clamp into the children
+                // (the point lies in the node up to rounding).
+                let inv = 1.0 / (1i64 << lvl) as f64;
                 let px = lr.o.x + ta * lr.d.x;
                 let py = lr.o.y + ta * lr.d.y;
                 let (w, h) = (dim(mip.nx, lvl) as i64, dim(mip.ny, lvl) as i64);
-                ix = (libm::floor(px / cs) as i64)
-                    .clamp(2 * ix, 2 * ix + 1)
-                    .min(w - 1);
-                iy = (libm::floor(py / cs) as i64)
-                    .clamp(2 * iy, 2 * iy + 1)
-                    .min(h - 1);
+                ix = ((px * inv) as i64).clamp(2 * ix, 2 * ix + 1).min(w - 1);
+                iy = ((py * inv) as i64).clamp(2 * iy, 2 * iy + 1).min(h - 1);
                 continue;
             }
             // Skip the node: leave through the face crossed first (both at a corner).

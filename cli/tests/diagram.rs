@@ -1,0 +1,205 @@
+//! `relief diagram`: every kind writes a PNG equal to the library's drawing of the same core
+//! state; bad input is one line on stderr and exit code 2.
+
+use relief_core::glam::DVec2;
+use relief_core::refine::{preprocess, Criterion};
+use relief_core::Heightfield;
+use relief_skia::dda::DdaSpec;
+use relief_skia::refine::RefineInput;
+use relief_skia::{hillshade, DiagramOptions, HillshadeOptions, Pixmap};
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn relief(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_relief"))
+        .args(args)
+        .output()
+        .expect("run relief")
+}
+
+const W: u32 = 33;
+
+fn samples() -> Vec<f32> {
+    (0..W * W)
+        .map(|i| {
+            let (x, y) = ((i % W) as f32, (i / W) as f32);
+            10.0 * (-((x - 12.0).powi(2) + (y - 15.0).powi(2)) / 40.0).exp() + 0.1 * x
+        })
+        .collect()
+}
+
+fn write_dem(dir: &Path) -> String {
+    let p = dir.join("dem.f32");
+    let bytes: Vec<u8> = samples().iter().flat_map(|v| v.to_le_bytes()).collect();
+    std::fs::write(&p, bytes).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+fn base_args<'a>(kind: &'a str, dem: &'a str, out: &'a str) -> Vec<&'a str> {
+    vec![
+        "diagram",
+        kind,
+        "--dem",
+        dem,
+        "--format",
+        "raw-f32",
+        "--width",
+        "33",
+        "--height",
+        "33",
+        "--max-size",
+        "200",
+        "--out",
+        out,
+    ]
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+#[test]
+fn refine_matches_the_library() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = write_dem(dir.path());
+    let out = dir.path().join("r.png");
+    let out_s = out.to_str().unwrap();
+    let mut args = base_args("refine", &dem, out_s);
+    args.extend(["--max-error", "0.5", "--circle-level", "7", "--json"]);
+    let o = relief(&args);
+    ok(&o);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(json["diagram"], "refine");
+    let s = samples();
+    let hf = Heightfield::new(&s, W, W).unwrap();
+    let (mut e, mut r) = (vec![0.0; (W * W) as usize], vec![0.0; (W * W) as usize]);
+    let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    let input = RefineInput::new(&hf, &h, Criterion::MaxError(0.5)).with_circle_level(Some(7));
+    let st = relief_skia::refine::refine_state(&input).unwrap();
+    assert_eq!(json["triangles"], st.triangles.len());
+    let base = hillshade(&hf, &HillshadeOptions::default()).unwrap();
+    let expected = relief_skia::refine::refine(
+        &input,
+        &DiagramOptions::default()
+            .with_max_size(200)
+            .with_background(Some(&base)),
+    )
+    .unwrap();
+    assert_eq!(Pixmap::load_png(&out).unwrap(), expected);
+}
+
+#[test]
+fn dda_matches_the_library() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = write_dem(dir.path());
+    let out = dir.path().join("d.png");
+    let out_s = out.to_str().unwrap();
+    let mut args = base_args("dda", &dem, out_s);
+    args.extend([
+        "--ray-start",
+        "0,0",
+        "--ray-dir",
+        "41,17",
+        "--ray-stop",
+        "32,13.27",
+        "--json",
+    ]);
+    let o = relief(&args);
+    ok(&o);
+    let spec = DdaSpec {
+        start: DVec2::ZERO,
+        dir: DVec2::new(41.0, 17.0),
+        stop: DVec2::new(32.0, 13.27),
+        cells: [W - 1, W - 1],
+    };
+    let expected =
+        relief_skia::dda::dda(&spec, &DiagramOptions::default().with_max_size(200)).unwrap();
+    assert_eq!(Pixmap::load_png(&out).unwrap(), expected);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let seq = json["run_sequence"].as_str().unwrap();
+    assert!(seq.starts_with("lslslss"), "{seq}");
+}
+
+#[test]
+fn rbf_and_cascades_write_pictures() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = write_dem(dir.path());
+    let out = dir.path().join("rbf.png");
+    let out_s = out.to_str().unwrap();
+    let mut args = base_args("rbf", &dem, out_s);
+    args.extend(["--at", "12,15", "--at", "30,2", "--rbf-max-error", "0.3"]);
+    ok(&relief(&args));
+    let a = Pixmap::load_png(&out).unwrap();
+    let out2 = dir.path().join("rbf2.png");
+    let mut args = base_args("rbf", &dem, out2.to_str().unwrap());
+    args.extend(["--at", "12,15", "--at", "30,2", "--rbf-max-error", "3"]);
+    ok(&relief(&args));
+    assert_ne!(a, Pixmap::load_png(&out2).unwrap());
+    let out3 = dir.path().join("c.png");
+    let mut args = base_args("cascades", &dem, out3.to_str().unwrap());
+    args.extend([
+        "--eye=-5,10,15",
+        "--target",
+        "20,20,0",
+        "--resolution",
+        "32",
+    ]);
+    ok(&relief(&args));
+    assert!(Pixmap::load_png(&out3).unwrap().width() >= 200);
+}
+
+fn fails(args: &[&str], needle: &str) {
+    let o = relief(args);
+    assert_eq!(o.status.code(), Some(2), "{args:?}");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains(needle), "{err}");
+}
+
+#[test]
+fn bad_input_is_one_line_and_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = write_dem(dir.path());
+    let out = dir.path().join("x.png");
+    let out_s = out.to_str().unwrap();
+    fails(&base_args("dda", &dem, out_s), "--ray-start");
+    let mut a = base_args("dda", &dem, out_s);
+    a.extend(["--ray-start", "0,nan", "--ray-dir", "1,1"]);
+    fails(&a, "error");
+    fails(&base_args("cascades", &dem, out_s), "--eye");
+    fails(&base_args("silhouette", &dem, out_s), "silhouette");
+    let mut a = base_args("refine", &dem, out_s);
+    a.extend(["--crop", "30,30,10,10"]);
+    fails(&a, "--crop");
+    let mut a = base_args("rbf", &dem, out_s);
+    a.extend(["--at", "99,99"]);
+    fails(&a, "outside");
+    fails(
+        &["diagram", "wobble", "--dem", &dem, "--out", out_s],
+        "wobble",
+    );
+    fails(
+        &[
+            "diagram",
+            "refine",
+            "--dem",
+            &dem,
+            "--format",
+            "raw-f32",
+            "--width",
+            "33",
+            "--height",
+            "33",
+            "--max-size",
+            "5",
+            "--out",
+            out_s,
+        ],
+        "too large",
+    );
+    assert!(!out.exists(), "no file is written on failure");
+}
