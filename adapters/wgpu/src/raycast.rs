@@ -105,7 +105,7 @@ impl RayEffects {
 /// Shading parameters (used only by the effects that are on).
 ///
 /// Defaults: sun from the south-west at 35 degrees elevation, ambient 0.3, fog colour light
-/// grey-blue with density `2e-5` per world unit, water blue at world height 0, detail gain 0.05.
+/// grey-blue with density `6e-6` per world unit, water blue at world height 0, detail gain 0.05.
 ///
 /// ```
 /// let s = relief_wgpu::raycast::Shading::default().with_water_level(12.0);
@@ -135,7 +135,7 @@ impl Default for Shading {
             sun: Vec3::new(-0.58, -0.58, 0.57),
             ambient: 0.3,
             fog_color: Vec3::new(0.75, 0.8, 0.85),
-            fog_density: 2e-5,
+            fog_density: 6e-6,
             water_color: Vec3::new(0.1, 0.25, 0.45),
             water_level: 0.0,
             detail_gain: 0.05,
@@ -155,7 +155,7 @@ impl Shading {
         self
     }
 
-    /// Sets the fog density per world unit (default `2e-5`).
+    /// Sets the fog density per world unit (default `6e-6`).
     ///
     /// ```
     /// assert_eq!(relief_wgpu::raycast::Shading::default().with_fog_density(1e-3).fog_density, 1e-3);

@@ -2,10 +2,11 @@
 //!
 //! The maximum mipmap is that of Tevs, Ihrke and Seidel, *Maximum Mipmaps for Fast, Accurate,
 //! and Scalable Dynamic Height Field Rendering* (I3D 2008), section 4, which Cornel et al.
-//! (seed 002, section 5) build once per cascade; the layout is exactly
+//! (seed 002, section 5) build once per cascade; the levels are exactly
 //! [`relief_core::ray::MaxMip`]'s (level 0 = maximum of each cell's four corners, then 2 x 2
-//! maxima, levels stored one after another), so the GPU pyramid can be compared with the CPU one
-//! number for number. Deformations (craters, Kentie 2009, seed 003, section 3.8) rewrite the
+//! maxima, odd sizes rounding up), stored row-major one level after another, so the GPU pyramid
+//! can be compared with the CPU one node for node (through [`relief_core::ray::MaxMip::node`]:
+//! the CPU may tile its storage). Deformations (craters, Kentie 2009, seed 003, section 3.8) rewrite the
 //! working heights from the uploaded base every frame, after which the pyramid is rebuilt: one
 //! dispatch per level, 8 x 8 workgroups (`shaders/maxmip.wgsl`, `shaders/deform.wgsl`).
 
@@ -66,8 +67,8 @@ impl Crater {
 /// t.encode_maxmip(&mut enc);
 /// gpu.queue.submit([enc.finish()]);
 /// let mip = t.read_maxmip(&gpu.device, &gpu.queue)?;
-/// assert_eq!(mip.len(), MaxMip::len(3, 3).unwrap());
-/// assert_eq!(mip[mip.len() - 1], 8.0);
+/// assert_eq!(mip, vec![4.0, 5.0, 7.0, 8.0, 8.0]); // 2 x 2 cells, then the top
+/// # let _ = MaxMip::len(3, 3);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 #[derive(Debug)]
@@ -110,13 +111,16 @@ impl GpuTerrain {
         dynamic: bool,
     ) -> Result<GpuTerrain, Error> {
         let (w, h) = (terrain.width(), terrain.height());
-        let mip_len = relief_core::ray::MaxMip::len(w, h).ok_or(relief_core::Error::TooSmall {
-            width: w,
-            height: h,
-        })?;
+        if w < 2 || h < 2 {
+            return Err(relief_core::Error::TooSmall {
+                width: w,
+                height: h,
+            }
+            .into());
+        }
         let limit = device.limits().max_storage_buffer_binding_size;
         let bytes = w as u64 * h as u64 * 16; // the normal map is the largest per-sample buffer
-        if bytes > limit || mip_len as u64 * 4 > limit {
+        if bytes > limit {
             return Err(Error::Unsupported(
                 "heightfield larger than the device's storage buffer binding size",
             ));
@@ -149,13 +153,15 @@ impl GpuTerrain {
             let (lw, lh) = (((nx - 1) >> k) + 1, ((ny - 1) >> k) + 1);
             offsets.push(total);
             dims.push((lw, lh));
-            total += lw * lh;
+            total = total
+                .checked_add(lw * lh)
+                .ok_or(Error::Unsupported("max-mip pyramid too large"))?;
             k += 1;
             if lw == 1 && lh == 1 {
                 break;
             }
         }
-        debug_assert_eq!(total as usize, mip_len);
+        let mip_len = total as usize;
         let mip = util::storage(device, "relief maxmip", mip_len as u64 * 4);
         let module =
             device.create_shader_module(wgpu::include_wgsl!("../../../shaders/maxmip.wgsl"));
@@ -287,7 +293,7 @@ impl GpuTerrain {
         &self.mip
     }
 
-    /// Elements of the pyramid (equal to [`relief_core::ray::MaxMip::len`]).
+    /// Elements of the pyramid (the sum of its row-major levels).
     #[must_use]
     pub fn mip_len(&self) -> usize {
         self.mip_len
