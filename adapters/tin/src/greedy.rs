@@ -188,18 +188,6 @@ pub struct Tin {
     stop: StopReason,
 }
 
-/// The current candidate of a face.
-#[derive(Debug, Clone, Copy, Default)]
-struct Candidate {
-    /// Largest vertical error over the samples the face covers (0 if it covers only corners).
-    err: f64,
-    /// The sample where it is reached.
-    x: u32,
-    y: u32,
-    /// A vertex of the face: where spade's point location starts walking.
-    hint: u32,
-}
-
 /// Worst sample of a triangle: `(error, x, y)`; error 0 and the first corner when the triangle
 /// covers no sample but its corners.
 fn scan_triangle(heights: &[f32], width: usize, c: [(i64, i64); 3]) -> (f64, u32, u32) {
@@ -255,9 +243,7 @@ struct Builder<'h> {
     /// Candidates with an error above this go into the heap; the others can never be picked.
     limit: f64,
     dt: Dt,
-    /// Current candidate of each face, indexed by spade's face index.
-    faces: Vec<Candidate>,
-    /// Faces whose candidate is above `limit`, by error.
+    /// Candidate of each face (by spade's face index); the faces above `limit` by error.
     heap: FaceHeap,
     /// Faces around a new vertex (reused buffer).
     ring: Vec<FixedFaceHandle<InnerTag>>,
@@ -280,18 +266,8 @@ impl Builder<'_> {
         };
         let k = (0..3).min_by_key(|&k| d2(k)).unwrap_or(0);
         let hint = vs[k].fix().index() as u32;
-        let i = face.index();
-        if self.faces.len() <= i {
-            self.faces.resize(i + 1, Candidate::default());
-        }
-        if let Some(cand) = self.faces.get_mut(i) {
-            *cand = Candidate { err, x, y, hint };
-        }
-        if err > self.limit {
-            self.heap.set(i as u32, err);
-        } else {
-            self.heap.remove(i as u32);
-        }
+        self.heap
+            .set(face.index() as u32, err, x, y, hint, err > self.limit);
     }
 
     /// Inserts sample `(x, y)` (walking from vertex `hint`); rescans the faces around the new
@@ -358,7 +334,6 @@ impl Tin {
             width: w as usize,
             limit,
             dt: Dt::new(),
-            faces: Vec::new(),
             heap: FaceHeap::default(),
             ring: Vec::new(),
         };
@@ -387,9 +362,7 @@ impl Tin {
                 break;
             }
             b.heap.pop();
-            let Some(cand) = b.faces.get(face as usize).copied() else {
-                continue;
-            };
+            let cand = b.heap.candidate(face);
             // A failed insertion is unreachable for a valid triangulation; the face has left
             // the heap, so the loop still progresses.
             b.insert(cand.hint, cand.x, cand.y);
@@ -397,9 +370,8 @@ impl Tin {
         // Stopped on error: every face's candidate is within the limit; the worst one is the
         // mesh error.
         let max_error = max_error.unwrap_or_else(|| {
-            b.dt.fixed_inner_faces()
-                .filter_map(|f| b.faces.get(f.index()))
-                .fold(0.0, |m: f64, c| m.max(c.err))
+            b.heap
+                .max_error(b.dt.fixed_inner_faces().map(|f| f.index()))
         });
         let vertices =
             b.dt.vertices()
