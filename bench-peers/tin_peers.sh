@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# TIN peer comparison: relief's greedy TIN (`relief mesh --method tin`) against pydelatin 0.4.0
+# (PyPI, C++ fogleman/hmm) and delatin 0.2.0 (npm, JS mapbox/delatin) on the same heights at the
+# same max error E. Every tool reads the same raw f32 file (decoded once by dem_to_raw.py), so the
+# inputs are bit-identical. Times are the best of REPS runs of each tool's whole build, measured
+# inside the tool (relief: refine_ms; pydelatin: the Delatin() call; delatin: constructor + run).
+#
+# usage: bench-peers/tin_peers.sh            (env: REPS=3, DATA=../shared/data, RELIEF=path)
+# prints one JSON line per tool, DEM and E, then a table (tin_summary.py).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+root=$(dirname "$here")
+DATA=${DATA:-$root/../shared/data}
+REPS=${REPS:-3}
+cd "$here"
+
+# Peers, installed from the registries into this folder (git-ignored).
+if [ ! -x .venv/bin/python ]; then python3 -m venv .venv; fi
+.venv/bin/python -c "import pydelatin, numpy, PIL" 2>/dev/null ||
+    .venv/bin/pip install -q "pydelatin==0.4.0" numpy pillow
+[ -f node_modules/delatin/package.json ] ||
+    npm install --no-save --no-audit --no-fund "delatin@0.2.0" >/dev/null
+
+if [ -z "${RELIEF:-}" ]; then
+    (cd "$root" && cargo build --release -q -p relief-cli)
+    RELIEF="${CARGO_TARGET_DIR:-$root/target}/release/relief"
+fi
+
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+out="$tmp/results.jsonl"
+
+# file : format : E list (in the file's height units: metres, except the 16-bit PNG's decimetres)
+specs=(
+    "delatin_14-2625-6369.png:terrain-rgb:0.1 0.5 1 5"
+    "martini_fuji.png:terrain-rgb:1 5 20"
+    "pymartini_mapbox_st_helens.png:terrain-rgb:0.5 1 5"
+    "pymartini_terrarium.png:terrarium:1 5 20"
+    "diligent_ps_height_1k.png:png:50 200 500"
+    "topotoolbox_srtm_bigtujunga30m_utm11.tif:tiff:1 5 20"
+    "pysheds_dem.tif:tiff:0.5 1 5"
+)
+for spec in "${specs[@]}"; do
+    IFS=: read -r name fmt errors <<<"$spec"
+    src="$DATA/$name"
+    if [ ! -f "$src" ]; then
+        echo "skipped: $src not present" >&2
+        continue
+    fi
+    raw="$tmp/${name%.*}.f32"
+    read -r w h < <(.venv/bin/python dem_to_raw.py "$src" "$fmt" "$raw")
+    # shellcheck disable=SC2086
+    .venv/bin/python pydelatin_run.py "$raw" "$w" "$h" "$REPS" $errors | sed "s/^{/{\"dem\": \"$name\", /" | tee -a "$out"
+    # shellcheck disable=SC2086
+    node delatin_run.mjs "$raw" "$w" "$h" "$REPS" $errors | sed "s/^{/{\"dem\": \"$name\", /" | tee -a "$out"
+    for e in $errors; do
+        best=""
+        for _ in $(seq "$REPS"); do
+            line=$("$RELIEF" mesh --method tin --dem "$raw" --format raw-f32 --width "$w" --height "$h" \
+                --max-error "$e" --out "$tmp/tin.obj" --json)
+            best=$(printf '%s\n%s\n' "$best" "$line" | .venv/bin/python -c '
+import json, sys
+rows = [json.loads(l) for l in sys.stdin if l.strip()]
+print(json.dumps(min(rows, key=lambda r: r["refine_ms"])))')
+        done
+        printf '%s\n' "$best" | .venv/bin/python -c '
+import json, sys
+r = json.loads(sys.stdin.read())
+print(json.dumps({"dem": sys.argv[1], "tool": "relief-tin", "max_error": float(sys.argv[2]),
+    "vertices": r["vertices"], "triangles": r["triangles"], "error": r["max_error_measured"],
+    "ms": r["refine_ms"]}))' "$name" "$e" | tee -a "$out"
+    done
+done
+.venv/bin/python tin_summary.py <"$out"
