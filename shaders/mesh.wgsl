@@ -1,8 +1,8 @@
 // Mesh pass: draws a triangle list (SOAR refinement output, relief_core::refine, seed 004
 // chapter 4.5, or any ordinary mesh) with reversed-Z depth into a Depth32Float buffer (seed 004,
 // section 4.6.3: an infinite far plane at depth 0 and the near plane at 1, so that far mountains
-// do not z-fight). Positions are world coordinates; the eye is subtracted in the shader so the
-// view matrix holds no large translation.
+// do not z-fight), as a triangle list or strip, optionally geomorphed. Positions are world
+// coordinates; the eye is subtracted in the shader so the view matrix holds no large translation.
 
 struct MeshParams {
     // Rotation + reversed-Z infinite projection, eye-relative.
@@ -24,13 +24,30 @@ struct VsOut {
     @location(0) world: vec3<f32>,
 }
 
-@vertex
-fn vs_mesh(@location(0) position: vec3<f32>) -> VsOut {
+fn project(position: vec3<f32>) -> VsOut {
     var out: VsOut;
     let rel = position - p.eye.xyz;
     out.pos = p.view_proj * vec4<f32>(rel, 1.0);
     out.world = rel;
     return out;
+}
+
+@vertex
+fn vs_mesh(@location(0) position: vec3<f32>) -> VsOut {
+    return project(position);
+}
+
+// Geomorphing (seed 004, section 4.5: SOAR's vertex morphing; relief_core::refine::MorphVertex):
+// the drawn height moves from the parent edge midpoint `base_z` to the sample's height as the
+// morph factor goes from 0 to 1, so vertices do not pop in when refinement adds them.
+@vertex
+fn vs_morph(
+    @location(0) position: vec3<f32>,
+    @location(1) base_z: f32,
+    @location(2) morph: f32,
+) -> VsOut {
+    let z = base_z + morph * (position.z - base_z);
+    return project(vec3<f32>(position.xy, z));
 }
 
 fn ramp(z: f32) -> vec3<f32> {

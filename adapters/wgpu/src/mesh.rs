@@ -1,8 +1,9 @@
 //! Mesh drawing with reversed-Z and depth output (render passes, `shaders/mesh.wgsl`,
 //! `shaders/depth_resolve.wgsl`).
 //!
-//! - [`MeshPass`] draws an indexed triangle list: the output of SOAR refinement
-//!   (`relief_core::refine`, seed 004 chapter 4.5) or any ordinary mesh. Depth is reversed-Z with
+//! - [`MeshPass`] draws an indexed triangle list or strip: the output of SOAR refinement
+//!   (`relief_core::refine`, seed 004 chapter 4.5; the in/out-edge strip of chapter 5.1) or any
+//!   ordinary mesh, optionally geomorphed in the vertex shader (SOAR's morphing). Depth is reversed-Z with
 //!   an infinite far plane in a [`wgpu::TextureFormat::Depth32Float`] buffer (seed 004, section
 //!   4.6.3: floating-point depth is densest near 0, where reversed-Z puts the far mountains, so
 //!   they do not z-fight). Vertices and indices are uploaded every frame with
@@ -225,7 +226,10 @@ pub enum MeshStyle {
 /// ```
 #[derive(Debug)]
 pub struct MeshPass {
-    pipeline: wgpu::RenderPipeline,
+    /// Indexed by `[strip as usize][morph as usize]`.
+    pipelines: [[wgpu::RenderPipeline; 2]; 2],
+    strip: bool,
+    morph: bool,
     group: wgpu::BindGroup,
     params: wgpu::Buffer,
     vertices: wgpu::Buffer,
@@ -269,38 +273,59 @@ impl MeshPass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let attrs = wgpu::vertex_attr_array![0 => Float32x3];
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("relief mesh"),
-            layout: Some(&pl),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_mesh"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: 12,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &attrs,
-                })],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Greater),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_mesh"),
-                compilation_options: Default::default(),
-                targets: &[Some(COLOR_FORMAT.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let plain = wgpu::vertex_attr_array![0 => Float32x3];
+        let morph = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32, 2 => Float32];
+        let make = |strip: bool, morphed: bool| {
+            let (attrs, stride, entry): (&[wgpu::VertexAttribute], u64, &str) = if morphed {
+                (&morph, 20, "vs_morph")
+            } else {
+                (&plain, 12, "vs_mesh")
+            };
+            let primitive = if strip {
+                wgpu::PrimitiveState {
+                    topology: wgpu::PrimitiveTopology::TriangleStrip,
+                    strip_index_format: Some(wgpu::IndexFormat::Uint32),
+                    ..Default::default()
+                }
+            } else {
+                wgpu::PrimitiveState::default()
+            };
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("relief mesh"),
+                layout: Some(&pl),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    buffers: &[Some(wgpu::VertexBufferLayout {
+                        array_stride: stride,
+                        step_mode: wgpu::VertexStepMode::Vertex,
+                        attributes: attrs,
+                    })],
+                },
+                primitive,
+                depth_stencil: Some(wgpu::DepthStencilState {
+                    format: DEPTH_FORMAT,
+                    depth_write_enabled: Some(true),
+                    depth_compare: Some(wgpu::CompareFunction::Greater),
+                    stencil: Default::default(),
+                    bias: Default::default(),
+                }),
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some("fs_mesh"),
+                    compilation_options: Default::default(),
+                    targets: &[Some(COLOR_FORMAT.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let pipelines = [
+            [make(false, false), make(false, true)],
+            [make(true, false), make(true, true)],
+        ];
         let params = util::uniform(device, "relief mesh params", 128);
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("relief mesh"),
@@ -317,7 +342,9 @@ impl MeshPass {
         };
         let s = crate::raycast::Shading::default();
         MeshPass {
-            pipeline,
+            pipelines,
+            strip: false,
+            morph: false,
             group,
             params,
             vertices: mk(wgpu::BufferUsages::VERTEX),
@@ -345,8 +372,8 @@ impl MeshPass {
     }
 
     /// Uploads this frame's mesh: world positions and a triangle list (three indices per
-    /// triangle). Queue writes only (no stall); the buffers grow to the next power of two when
-    /// the mesh does not fit.
+    /// triangle, e.g. [`relief_core::refine::Refiner::triangles`]). Queue writes only (no
+    /// stall); the buffers grow to the next power of two when the mesh does not fit.
     pub fn upload(
         &mut self,
         device: &wgpu::Device,
@@ -354,7 +381,65 @@ impl MeshPass {
         vertices: &[[f32; 3]],
         indices: &[u32],
     ) {
-        let vb: &[u8] = bytemuck::cast_slice(vertices);
+        self.upload_bytes(
+            device,
+            queue,
+            bytemuck::cast_slice(vertices),
+            indices,
+            false,
+            false,
+        );
+    }
+
+    /// Uploads a generalized triangle strip (e.g. [`relief_core::refine::Refiner::inout_strip`]:
+    /// every three consecutive indices form a triangle, degenerate ones included).
+    pub fn upload_strip(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        vertices: &[[f32; 3]],
+        strip: &[u32],
+    ) {
+        self.upload_bytes(
+            device,
+            queue,
+            bytemuck::cast_slice(vertices),
+            strip,
+            true,
+            false,
+        );
+    }
+
+    /// Uploads geomorphing vertices ([`relief_core::refine::Refiner::morph`], in the vertex order
+    /// of [`relief_core::refine::Refiner::triangles`]) with a triangle list (`strip = false`) or
+    /// strip: the vertex shader draws each at `base_z + morph (z - base_z)`.
+    pub fn upload_morph(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        vertices: &[relief_core::refine::MorphVertex],
+        indices: &[u32],
+        strip: bool,
+    ) {
+        self.upload_bytes(
+            device,
+            queue,
+            bytemuck::cast_slice(vertices),
+            indices,
+            strip,
+            true,
+        );
+    }
+
+    fn upload_bytes(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        vb: &[u8],
+        indices: &[u32],
+        strip: bool,
+        morph: bool,
+    ) {
         let ib: &[u8] = bytemuck::cast_slice(indices);
         grow(
             device,
@@ -374,7 +459,17 @@ impl MeshPass {
         if !ib.is_empty() {
             queue.write_buffer(&self.indices, 0, ib);
         }
-        self.index_count = indices.len() as u32 / 3 * 3;
+        self.strip = strip;
+        self.morph = morph;
+        self.index_count = if strip {
+            if indices.len() >= 3 {
+                indices.len() as u32
+            } else {
+                0
+            }
+        } else {
+            indices.len() as u32 / 3 * 3
+        };
     }
 
     /// Records the draw into `target`. `clear` clears colour (sky) and depth (0) first; without
@@ -445,7 +540,7 @@ impl MeshPass {
             multiview_mask: None,
         });
         if self.index_count > 0 {
-            pass.set_pipeline(&self.pipeline);
+            pass.set_pipeline(&self.pipelines[usize::from(self.strip)][usize::from(self.morph)]);
             pass.set_bind_group(0, &self.group, &[]);
             pass.set_vertex_buffer(0, self.vertices.slice(..));
             pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);

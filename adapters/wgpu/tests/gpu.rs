@@ -7,7 +7,8 @@
 use glam::Vec3;
 use relief_core::ray::{MarchOptions, MaxMip, Ray, RayTracer};
 use relief_core::refine::{
-    preprocess, scratch_len, triangle_bound, vertex_bound, Criterion, Refiner,
+    preprocess, scratch_len, strip_bound, triangle_bound, vertex_bound, Criterion, MorphVertex,
+    Refiner, View,
 };
 use relief_core::{
     normal_map, Camera, Composed, Heightfield, NormalMethod, Scale, Surface, Terrain,
@@ -701,4 +702,126 @@ fn effects_change_the_colour_not_the_depth_and_craters_match_the_cpu() {
     let (frac, bad) = agreement(&frame.depth, &cd, |i| 1e-3 * f64::from(cd[i]));
     assert!(frac >= 0.999, "deformed terrain: {frac} ({bad})");
     assert_ne!(frame.depth, bare.depth, "the craters are visible");
+}
+
+/// GPU depth of `mesh` (already uploaded) against the brute-force CPU intersection of `tris`.
+fn mesh_agreement(
+    g: &Gpu,
+    mesh: &MeshPass,
+    cam: &Camera,
+    verts: &[[f32; 3]],
+    tris: &[u32],
+) -> (f64, usize) {
+    let target = DepthTarget::new(&g.device, cam.width, cam.height);
+    submit(g, |e| {
+        mesh.encode(
+            &g.queue,
+            e,
+            &target,
+            cam,
+            MeshStyle::Terrain { lighting: false },
+            (0.0, 120.0),
+            true,
+        )
+        .unwrap()
+    });
+    let depth = target.read_depth(&g.device, &g.queue).unwrap();
+    let mut gd = Vec::new();
+    let mut cd = Vec::new();
+    for j in 0..cam.height {
+        for i in 0..cam.width {
+            gd.push(depth_to_distance(
+                cam,
+                1.0,
+                i,
+                j,
+                depth[(j * cam.width + i) as usize],
+            ));
+            let (o, d) = cam.ray(i, j);
+            cd.push(mesh_hit(verts, tris, o, d).map_or(f32::INFINITY, |t| t as f32));
+        }
+    }
+    let hits = cd.iter().filter(|t| t.is_finite()).count();
+    assert!(hits > cd.len() / 4, "too few hits: {hits}");
+    agreement(&gd, &cd, |i| 1e-3 * f64::from(cd[i]))
+}
+
+#[test]
+fn mesh_pass_draws_in_out_strips_and_geomorphs_like_the_cpu() {
+    let Some(g) = gpu() else { return };
+    let (w, h) = (33, 33);
+    let s = synthetic(w, h);
+    let hf = Heightfield::with_scale(&s, w, h, Scale::default().with_spacing(3.0, 3.0)).unwrap();
+    let (mut e, mut r) = (vec![0.0; (w * h) as usize], vec![0.0; (w * h) as usize]);
+    let hier = preprocess(&hf, &mut e, &mut r).unwrap();
+    let c0 = cameras(&hf)[0];
+    let cam = Camera::new(c0.eye, c0.target, c0.fov_deg, 96, 72).unwrap();
+    let mut mesh = MeshPass::new(&g.device);
+    let mut scratch = vec![0; scratch_len(w, h)];
+
+    // Seed 004's in/out-edge strip, drawn as a strip; the CPU expands it into triangles.
+    let rf = Refiner::new(&hier, &hf, Criterion::MaxError(0.5)).unwrap();
+    let mut verts = vec![[0.0f32; 3]; vertex_bound(w, h)];
+    let mut strip = vec![0u32; strip_bound(w, h)];
+    let c = rf
+        .inout_strip(&mut scratch, &mut verts, &mut strip)
+        .unwrap();
+    verts.truncate(c.vertices);
+    strip.truncate(c.indices);
+    let tris: Vec<u32> = strip
+        .windows(3)
+        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        .flatten()
+        .copied()
+        .collect();
+    assert!(
+        tris.len() / 3 >= c.triangles && c.triangles > 300,
+        "{} {}",
+        tris.len() / 3,
+        c.triangles
+    );
+    mesh.upload_strip(&g.device, &g.queue, &verts, &strip);
+    let (frac, bad) = mesh_agreement(g, &mesh, &cam, &verts, &tris);
+    eprintln!(
+        "strip ({} indices, {} triangles): depth agreement {frac:.6} ({bad})",
+        c.indices, c.triangles
+    );
+    assert!(frac >= 0.999, "strip: {frac} ({bad})");
+
+    // Geomorphing: view-dependent refinement with a morph range; the CPU applies the morph.
+    let view = View::new(&cam, 0.5).unwrap().with_geomorph(Some(4.0));
+    let rf = Refiner::new(&hier, &hf, Criterion::View(view)).unwrap();
+    let mut verts = vec![[0.0f32; 3]; vertex_bound(w, h)];
+    let mut tris = vec![[0u32; 3]; triangle_bound(w, h)];
+    let c = rf.triangles(&mut scratch, &mut verts, &mut tris).unwrap();
+    let mut morph = vec![MorphVertex::default(); c.vertices];
+    let n = rf.morph(&mut scratch, &mut morph).unwrap();
+    assert_eq!(n, c.vertices);
+    let partial = morph
+        .iter()
+        .filter(|m| m.morph < 0.99 && (m.position[2] - m.base_z).abs() > 0.5)
+        .count();
+    assert!(
+        partial > 10,
+        "the test needs vertices in mid-morph: {partial}"
+    );
+    let morphed: Vec<[f32; 3]> = morph
+        .iter()
+        .map(|m| {
+            [
+                m.position[0],
+                m.position[1],
+                m.base_z + m.morph * (m.position[2] - m.base_z),
+            ]
+        })
+        .collect();
+    let idx: Vec<u32> = tris[..c.triangles].iter().flatten().copied().collect();
+    mesh.upload_morph(&g.device, &g.queue, &morph, &idx, false);
+    let (frac, bad) = mesh_agreement(g, &mesh, &cam, &morphed, &idx);
+    eprintln!("geomorph ({partial} vertices mid-morph): depth agreement {frac:.6} ({bad})");
+    assert!(frac >= 0.999, "geomorph: {frac} ({bad})");
+    // And the morph is visible: the unmorphed mesh differs from the GPU's picture.
+    let unmorphed: Vec<[f32; 3]> = morph.iter().map(|m| m.position).collect();
+    let (same, _) = mesh_agreement(g, &mesh, &cam, &unmorphed, &idx);
+    assert!(same < 0.999, "geomorphing changed nothing ({same})");
 }
