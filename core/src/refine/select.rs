@@ -392,7 +392,21 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             out: triangles,
             n: 0,
         };
-        self.walk_all(&mut sink, false);
+        if self.view.is_none() {
+            // View-independent: the kept set is the bitmap (1 bit per vertex, cache-resident),
+            // so the traversal never touches the error array.
+            let n = self.g.side() as i64;
+            let square = self.g.is_square();
+            for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
+                if square {
+                    self.walk_vi::<_, true>(&mut sink, bits, l, r, a, 0);
+                } else {
+                    self.walk_vi::<_, false>(&mut sink, bits, l, r, a, 0);
+                }
+            }
+        } else {
+            self.walk_all(&mut sink, false);
+        }
         Ok(c)
     }
 
@@ -572,6 +586,51 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let mask = self.view.map_or(0, |v| v.mask);
         self.walk(sink, (n, n), (0, 0), (n, 0), mask, 0, cull_keeps);
         self.walk(sink, (0, 0), (n, n), (0, n), mask, 0, cull_keeps);
+    }
+
+    /// View-independent traversal driven by the bitmap of kept vertices (`SQUARE`: the grid
+    /// fills the enclosing square, no domain tests). Recursion depth at most `levels() <= 60`.
+    fn walk_vi<S: Sink, const SQUARE: bool>(
+        &self,
+        sink: &mut S,
+        bits: &[u64],
+        l: (i64, i64),
+        r: (i64, i64),
+        a: (i64, i64),
+        level: u32,
+    ) {
+        let straddle = if SQUARE {
+            false
+        } else {
+            match self.g.classify([l, r, a]) {
+                Class::Outside => return,
+                Class::Straddle => true,
+                Class::Inside => false,
+            }
+        };
+        if level >= self.g.levels() {
+            sink.tri(l, r, a);
+            return;
+        }
+        let m = ((l.0 + r.0) / 2, (l.1 + r.1) / 2);
+        let i = (m.1 * self.g.width() as i64 + m.0) as usize;
+        let kept = bits.get(i >> 6).is_some_and(|b| (b >> (i & 63)) & 1 == 1);
+        if SQUARE && level + 1 == self.g.levels() {
+            // The children are leaf cells: emit them here instead of recursing.
+            if kept {
+                sink.tri(a, l, m);
+                sink.tri(r, a, m);
+            } else {
+                sink.tri(l, r, a);
+            }
+            return;
+        }
+        if straddle || kept {
+            self.walk_vi::<S, SQUARE>(sink, bits, a, l, m, level + 1);
+            self.walk_vi::<S, SQUARE>(sink, bits, r, a, m, level + 1);
+        } else {
+            sink.tri(l, r, a);
+        }
     }
 
     /// Triangle `(l, r, a)`, counter-clockwise, hypotenuse `l-r`, split vertex at `level`.
