@@ -14,7 +14,8 @@
 //! | heightfield upload, deformations, maximum-mipmap build (compute) | [`terrain`] | 002 (sec. 5), 003 (sec. 3.8) |
 //! | normal map: central, Sobel, composed base + detail (compute) | [`normals`] | 003 (sec. 3.6), 004 (sec. 2.3, 7.3) |
 //! | ray casting: max-mip and march, depth + normal + colour (compute) | [`raycast`] | 002 (sec. 5), 003 (sec. 3.3-3.5) |
-//! | mesh drawing with reversed-Z, depth output (render) | [`mesh`] | 003 (sec. 3.7), 004 (sec. 4.6.3) |
+//! | mesh drawing with reversed-Z, strips, geomorphing, depth output (render) | [`mesh`] | 003 (sec. 3.7), 004 (sec. 4.5, 4.6.3, 5.1) |
+//! | silhouette partitioning: map, packed tree, fixed-cost trace (compute) | [`silhouette`] | 000 |
 //! | effects on demand: a [`Scene`] and the passes its frame needs | [`scene`] | 003 (sec. 4, table 1) |
 //!
 //! Conventions are those of `relief-core` (CONVENTIONS.md): camera rays from
@@ -44,6 +45,7 @@ pub mod mesh;
 pub mod normals;
 pub mod raycast;
 pub mod scene;
+pub mod silhouette;
 pub mod terrain;
 mod util;
 

@@ -825,3 +825,168 @@ fn mesh_pass_draws_in_out_strips_and_geomorphs_like_the_cpu() {
     let (same, _) = mesh_agreement(g, &mesh, &cam, &unmorphed, &idx);
     assert!(same < 0.999, "geomorphing changed nothing ({same})");
 }
+
+/// CPU model of seed 000 in f64: per column, the nearest row whose silhouette reaches the
+/// pixel (linear scan instead of the tree), the same interpolation and depth as the shader.
+fn silhouette_cpu(hf: &Heightfield<'_, f32>, cam: &Camera) -> Vec<f32> {
+    use relief_wgpu::silhouette::RowMap;
+    let s = hf.scale();
+    let m = RowMap::for_camera(cam, hf.width(), hf.height());
+    let (f, r, u) = cam.basis();
+    let (f, r, u) = (f.as_dvec3(), r.as_dvec3(), u.as_dvec3());
+    let eye = cam.eye.as_dvec3() - glam::DVec3::new(0.0, 0.0, f64::from(s.z_offset));
+    let grid = |k: i32, v: i32| {
+        [
+            m.origin[0] + k * m.ustep[0] + v * m.vstep[0],
+            m.origin[1] + k * m.ustep[1] + v * m.vstep[1],
+        ]
+    };
+    let screen = |k: i32, v: i32| {
+        let g = grid(k, v);
+        let p = glam::DVec3::new(
+            f64::from(g[0]) * f64::from(s.dx),
+            f64::from(g[1]) * f64::from(s.dy),
+            f64::from(hf.local_z(g[0] as u32, g[1] as u32)),
+        );
+        let q = p - eye;
+        let vz = q.dot(f);
+        (q.dot(r) / vz, q.dot(u) / vz)
+    };
+    let (w, h) = (cam.width, cam.height);
+    let tan = f64::from(cam.tan_half_fov());
+    let aspect = f64::from(w) / f64::from(h);
+    let nu = m.row_len as i32;
+    let mut out = vec![f32::INFINITY; (w * h) as usize];
+    for i in 0..w {
+        let x = (2.0 * (f64::from(i) + 0.5) / f64::from(w) - 1.0) * aspect * tan;
+        // Silhouette map column: (y, u) per row, None where the row does not cover x.
+        let col: Vec<Option<(f64, f64)>> = (0..m.rows as i32)
+            .map(|v| {
+                let (a, b) = (screen(0, v), screen(nu - 1, v));
+                if x < a.0.min(b.0) || x > a.0.max(b.0) {
+                    return None;
+                }
+                let inc = b.0 > a.0;
+                let (mut lo, mut hi) = (0, nu - 1);
+                while hi - lo > 1 {
+                    let mid = (lo + hi) / 2;
+                    if (screen(mid, v).0 <= x) == inc {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                let (s0, s1) = (screen(lo, v), screen(hi, v));
+                let t = if s1.0 != s0.0 {
+                    ((x - s0.0) / (s1.0 - s0.0)).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                Some((
+                    s0.1 + t * (s1.1 - s0.1),
+                    f64::from(lo) + t * f64::from(hi - lo),
+                ))
+            })
+            .collect();
+        for j in 0..h {
+            let y = (1.0 - 2.0 * (f64::from(j) + 0.5) / f64::from(h)) * tan;
+            let Some(v) = col.iter().position(|c| c.is_some_and(|c| c.0 >= y)) else {
+                continue;
+            };
+            let s1 = col[v].unwrap();
+            let (mut vh, mut uh) = (v as f64, s1.1);
+            if v > 0 {
+                if let Some(s0) = col[v - 1] {
+                    if s1.0 != s0.0 {
+                        let t = ((y - s0.0) / (s1.0 - s0.0)).clamp(0.0, 1.0);
+                        vh = (v - 1) as f64 + t;
+                        uh = s0.1 + t * (s1.1 - s0.1);
+                    }
+                }
+            }
+            let dir = (f + x * r + y * u).normalize();
+            let gx =
+                f64::from(m.origin[0]) + vh * f64::from(m.vstep[0]) + uh * f64::from(m.ustep[0]);
+            let gy =
+                f64::from(m.origin[1]) + vh * f64::from(m.vstep[1]) + uh * f64::from(m.ustep[1]);
+            let t = if m.vstep[0] != 0 {
+                (gx * f64::from(s.dx) - eye.x) / dir.x
+            } else {
+                (gy * f64::from(s.dy) - eye.y) / dir.y
+            };
+            out[(j * w + i) as usize] = t.max(0.0) as f32;
+        }
+    }
+    out
+}
+
+#[test]
+fn silhouette_partitioning_matches_its_cpu_model_and_approximates_the_exact_trace() {
+    use relief_wgpu::silhouette::SilhouettePass;
+    let Some(g) = gpu() else { return };
+    let dem = puget();
+    let real = dem.heightfield().unwrap();
+    let (w, h) = (257, 193);
+    let s = synthetic(w, h);
+    let synth = Heightfield::with_scale(&s, w, h, Scale::default().with_spacing(2.0, 2.0)).unwrap();
+    let cases = [
+        (
+            "synthetic +y",
+            synth,
+            Vec3::new(256.0, -150.0, 250.0),
+            Vec3::new(256.0, 200.0, 0.0),
+        ),
+        (
+            "puget +y",
+            real,
+            Vec3::new(82_000.0, -20_000.0, 9000.0),
+            Vec3::new(82_000.0, 60_000.0, 0.0),
+        ),
+        (
+            "puget -x",
+            real,
+            Vec3::new(185_000.0, 70_000.0, 9000.0),
+            Vec3::new(90_000.0, 80_000.0, 0.0),
+        ),
+    ];
+    for (name, hf, eye, target) in cases {
+        let cam = Camera::new(eye, target, 50.0, 160, 120).unwrap();
+        let t = GpuTerrain::new(&g.device, &g.queue, &hf, false).unwrap();
+        let pass = SilhouettePass::new(&g.device, &t, cam.width, cam.height).unwrap();
+        submit(g, |e| pass.encode(&g.queue, e, &t, &cam).unwrap());
+        let gd = pass.outputs().read_depth(&g.device, &g.queue).unwrap();
+        let model = silhouette_cpu(&hf, &cam);
+        let hits = model.iter().filter(|t| t.is_finite()).count();
+        assert!(hits > model.len() / 4, "{name}: too few hits {hits}");
+        let (frac, bad) = agreement(&gd, &model, |i| 1e-3 * f64::from(model[i]));
+        // Against the exact trace: how good the approximation is (stated, loosely bounded).
+        let tracer = RayTracer::new(&hf, Surface::Triangles);
+        let (exact, _) = cpu_depth(&hf, &cam, |r| {
+            tracer.trace_cell_dda(r).hit.map(|h| (h.t, h.normal))
+        });
+        let (close, _) = agreement(&gd, &exact, |i| 0.02 * f64::from(exact[i]));
+        eprintln!(
+            "silhouette {name}: {} texel reads per pixel; GPU vs CPU model {frac:.6} ({bad} differ); \
+             within 2% of the exact trace: {close:.4}",
+            pass.reads_per_pixel()
+        );
+        assert!(frac >= 0.999, "{name}: {frac} ({bad})");
+        assert!(
+            close >= 0.9,
+            "{name}: only {close} of pixels within 2% of the exact trace"
+        );
+    }
+    // Terrain behind the camera is refused.
+    let t = GpuTerrain::new(&g.device, &g.queue, &synth, false).unwrap();
+    let cam = Camera::new(
+        Vec3::new(256.0, 100.0, 150.0),
+        Vec3::new(256.0, 300.0, 100.0),
+        50.0,
+        160,
+        120,
+    )
+    .unwrap();
+    let pass = SilhouettePass::new(&g.device, &t, 160, 120).unwrap();
+    let mut enc = g.device.create_command_encoder(&Default::default());
+    assert!(pass.encode(&g.queue, &mut enc, &t, &cam).is_err());
+}
