@@ -1,6 +1,6 @@
 //! `relief render`: GPU and CPU depth images agree, JSON lists the passes of the effects named,
-//! PNG output, one-line errors with exit code 2 (no adapter, unknown effect, unimplemented
-//! method). Without any GPU adapter the GPU cases print a loud notice and return, unless
+//! PNG output, one-line errors with exit code 2 (no adapter, unknown effect, GPU-only methods).
+//! Without any GPU adapter the GPU cases print a loud notice and return, unless
 //! `RELIEF_REQUIRE_GPU=1` (CI), which makes them fail.
 
 use std::path::Path;
@@ -144,6 +144,42 @@ fn gpu_and_cpu_depth_agree_and_json_lists_the_passes() {
         return;
     };
     assert_eq!(pass_names(&mesh, "passes"), ["refine", "mesh"]);
+    // Silhouette partitioning needs the terrain in front: a camera south of the map.
+    let dem = bundled();
+    let png = dir.path().join("sil.png").display().to_string();
+    let out = relief(
+        &[
+            "render",
+            "--dem",
+            &dem,
+            "--dx",
+            "160",
+            "--dy",
+            "160",
+            "--z-scale",
+            "0.1",
+            "--eye",
+            "82000,-20000,9000",
+            "--target",
+            "82000,60000,0",
+            "--size",
+            "160x120",
+            "--method",
+            "silhouette",
+            "--json",
+            "--out",
+            &png,
+        ],
+        &[],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(pass_names(&v, "passes"), ["silhouette"]);
+    assert!(v["hits"].as_u64().unwrap() > 160 * 120 / 4);
 }
 
 #[test]
@@ -160,8 +196,8 @@ fn no_adapter_unknown_effects_and_silhouette_are_one_line_errors() {
     bad.extend_from_slice(&["--effects", "lighting,sparkles"]);
     assert_one_line_error(&relief(&bad, &[]), "unknown effect 'sparkles'");
     let mut sil = args.clone();
-    sil.extend_from_slice(&["--method", "silhouette"]);
-    assert_one_line_error(&relief(&sil, &[]), "not implemented");
+    sil.extend_from_slice(&["--method", "silhouette", "--backend", "cpu"]);
+    assert_one_line_error(&relief(&sil, &[]), "need --backend gpu");
     let mut cpu = args.clone();
     cpu.extend_from_slice(&["--backend", "cpu", "--effects", "water"]);
     assert_one_line_error(&relief(&cpu, &[]), "needs --backend gpu");

@@ -1,5 +1,6 @@
 //! `relief render`: render a DEM from a camera to a PNG (and optionally a depth image) on the
-//! GPU (relief-wgpu: max-mip or march ray casting, or SOAR refinement drawn by the mesh pass) or
+//! GPU (relief-wgpu: max-mip or march ray casting, silhouette partitioning, or SOAR refinement
+//! drawn by the mesh pass) or
 //! on the CPU (relief-core tracing, rows in parallel), with the effects named by `--effects`.
 //! JSON lists the passes run with their times.
 
@@ -32,7 +33,8 @@ pub enum RenderMethod {
     Maxmip,
     /// Linear + binary search ray marching (approximate).
     March,
-    /// Silhouette partitioning (seed 000): not implemented yet.
+    /// Silhouette partitioning (seed 000), GPU only, approximate; the terrain must be entirely
+    /// in front of the camera.
     Silhouette,
     /// View-dependent SOAR refinement drawn as triangles (GPU only).
     Mesh,
@@ -256,6 +258,40 @@ fn render_gpu(
             passes: medians(&frames),
         });
     }
+    if a.method == RenderMethod::Silhouette {
+        if let Some(e) = effects.iter().find(|e| **e != Effect::DepthOutput) {
+            return Err(CliError(format!(
+                "effect '{}' is not available with --method silhouette",
+                e.name()
+            )));
+        }
+        let terrain = relief_wgpu::GpuTerrain::new(&gpu.device, &gpu.queue, hf, false)?;
+        let pass = relief_wgpu::silhouette::SilhouettePass::new(&gpu.device, &terrain, w, h)?;
+        let mut frames = Vec::new();
+        for _ in 0..a.repeat {
+            let t = Instant::now();
+            let mut enc = gpu.device.create_command_encoder(&Default::default());
+            pass.encode(&gpu.queue, &mut enc, &terrain, camera)?;
+            gpu.queue.submit([enc.finish()]);
+            gpu.device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| CliError(e.to_string()))?;
+            frames.push(vec![(
+                "silhouette".to_string(),
+                t.elapsed().as_secs_f64() * 1e3,
+            )]);
+        }
+        let o = pass.outputs();
+        return Ok(Rendered {
+            width: w,
+            height: h,
+            depth: o.read_depth(&gpu.device, &gpu.queue)?,
+            color: o.read_color(&gpu.device, &gpu.queue)?,
+            device,
+            setup: Vec::new(),
+            passes: medians(&frames),
+        });
+    }
     let method = match a.method {
         RenderMethod::March => relief_wgpu::Method::march(),
         _ => relief_wgpu::Method::MaxMip,
@@ -366,8 +402,10 @@ fn render_cpu(
             e.name()
         )));
     }
-    if a.method == RenderMethod::Mesh {
-        return Err(CliError("--method mesh needs --backend gpu".into()));
+    if matches!(a.method, RenderMethod::Mesh | RenderMethod::Silhouette) {
+        return Err(CliError(
+            "--method mesh and --method silhouette need --backend gpu".into(),
+        ));
     }
     let (w, h) = a.size;
     let t0 = Instant::now();
@@ -481,11 +519,6 @@ fn write_png(path: &Path, w: u32, h: u32, color: &[[u8; 4]]) -> CliResult {
 /// Runs `relief render`.
 pub fn run(a: &RenderArgs) -> CliResult {
     let effects = parse_effects(&a.effects)?;
-    if a.method == RenderMethod::Silhouette {
-        return Err(CliError(
-            "--method silhouette (seed 000 silhouette partitioning) is not implemented yet".into(),
-        ));
-    }
     if a.repeat == 0 {
         return Err(CliError("--repeat must be at least 1".into()));
     }
