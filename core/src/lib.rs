@@ -44,6 +44,7 @@ mod sample;
 
 pub mod rbf;
 pub mod refine;
+pub mod silhouette;
 
 pub use camera::Camera;
 pub use compose::Composed;
