@@ -16,6 +16,7 @@
 //! | ray casting: max-mip and march, depth + normal + colour (compute) | [`raycast`] | 002 (sec. 5), 003 (sec. 3.3-3.5) |
 //! | mesh drawing with reversed-Z, strips, geomorphing, depth output (render) | [`mesh`] | 003 (sec. 3.7), 004 (sec. 4.5, 4.6.3, 5.1) |
 //! | silhouette partitioning: map, packed tree, fixed-cost trace (compute) | [`silhouette`] | 000 |
+//! | RBF cascade discretization (compute) | [`rbf`] | 002 (sec. 4) |
 //! | effects on demand: a [`Scene`] and the passes its frame needs | [`scene`] | 003 (sec. 4, table 1) |
 //!
 //! Conventions are those of `relief-core` (CONVENTIONS.md): camera rays from
@@ -44,6 +45,7 @@
 pub mod mesh;
 pub mod normals;
 pub mod raycast;
+pub mod rbf;
 pub mod scene;
 pub mod silhouette;
 pub mod terrain;

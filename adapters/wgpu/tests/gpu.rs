@@ -990,3 +990,65 @@ fn silhouette_partitioning_matches_its_cpu_model_and_approximates_the_exact_trac
     let mut enc = g.device.create_command_encoder(&Default::default());
     assert!(pass.encode(&g.queue, &mut enc, &t, &cam).is_err());
 }
+
+#[test]
+fn rbf_cascade_discretization_matches_the_cpu() {
+    use relief_core::rbf::{
+        adaptive_grid_bound, build_adaptive_grid, discretize, fit_cascades, AdaptiveGrid,
+        CascadeOptions, Cell, GridOptions, InfluenceSets, Rbf, RbfOptions,
+    };
+    let Some(g) = gpu() else { return };
+    let (w, h) = (257, 257);
+    let s = synthetic(w, h);
+    let scale = Scale::default().with_spacing(2.0, 2.0);
+    let hf = Heightfield::with_scale(&s, w, h, scale).unwrap();
+    let gopts = GridOptions::default().with_max_error(2.0).with_cells(1, 32);
+    let mut cells = vec![Cell::default(); adaptive_grid_bound(w, h).unwrap()];
+    let n = build_adaptive_grid(&hf, &gopts, &mut cells).unwrap();
+    cells.truncate(n);
+    let mut index = vec![0u32; (w * h) as usize];
+    let grid = AdaptiveGrid::new(w, h, &cells, &mut index).unwrap();
+    let ropts = RbfOptions::default();
+    let mut offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
+    let mut entries = vec![0u32; InfluenceSets::entries_len(&grid, &ropts).unwrap()];
+    let sets = InfluenceSets::build(&grid, &ropts, &mut offsets, &mut entries).unwrap();
+    let rbf = Rbf::new(grid, sets, &ropts).unwrap();
+    let cam = Camera::new(
+        Vec3::new(20.0, 30.0, 150.0),
+        Vec3::new(400.0, 350.0, 40.0),
+        60.0,
+        640,
+        480,
+    )
+    .unwrap();
+    let cas = fit_cascades(
+        &cam,
+        rbf.grid(),
+        &scale,
+        (0.0, 130.0),
+        &CascadeOptions::default().with_resolution(128),
+        None,
+    )
+    .unwrap();
+    assert!(cas.visible);
+    let pass = relief_wgpu::rbf::RbfPass::new(&g.device, &rbf, &sets).unwrap();
+    let mut visible_total = 0;
+    for (k, c) in cas.cascades.iter().enumerate() {
+        let t = (c.resolution * c.resolution) as usize;
+        let (mut mask, mut cv, mut cw) = (vec![0u8; t], vec![0f32; t], vec![0f32; t]);
+        c.mask(&mut mask).unwrap();
+        let visible = discretize(&rbf, c, &mask, &mut cv, &mut cw).unwrap();
+        visible_total += visible;
+        let gv = pass.discretize(&g.device, &g.queue, c, &mask).unwrap();
+        let worst = gv
+            .iter()
+            .zip(&cv)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
+        eprintln!("cascade {k}: {visible} visible texels, worst |gpu - cpu| = {worst}");
+        // Values are heights around 0..130: f32 evaluation order and exp differ by ulps.
+        assert!(worst <= 1e-4, "cascade {k}: worst difference {worst}");
+        assert!(gv.iter().zip(&mask).all(|(v, m)| *m != 0 || *v == 0.0));
+    }
+    assert!(visible_total > 1000, "{visible_total}");
+}
