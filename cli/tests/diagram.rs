@@ -152,6 +152,43 @@ fn rbf_and_cascades_write_pictures() {
     assert!(Pixmap::load_png(&out3).unwrap().width() >= 200);
 }
 
+#[test]
+fn silhouette_matches_the_library() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = write_dem(dir.path());
+    let out = dir.path().join("s.png");
+    let mut args = base_args("silhouette", &dem, out.to_str().unwrap());
+    args.extend([
+        "--eye=16,-20,15",
+        "--target",
+        "16,20,0",
+        "--size",
+        "120x80",
+        "--levels",
+        "1,4",
+    ]);
+    ok(&relief(&args));
+    let s = samples();
+    let hf = Heightfield::new(&s, W, W).unwrap();
+    let cam = relief_core::Camera::new(
+        relief_core::glam::Vec3::new(16.0, -20.0, 15.0),
+        relief_core::glam::Vec3::new(16.0, 20.0, 0.0),
+        60.0,
+        120,
+        80,
+    )
+    .unwrap();
+    let expected = relief_skia::silhouette::silhouette(
+        &hf,
+        &cam,
+        0.01,
+        &[1, 4],
+        &DiagramOptions::default().with_max_size(200),
+    )
+    .unwrap();
+    assert_eq!(Pixmap::load_png(&out).unwrap(), expected);
+}
+
 fn fails(args: &[&str], needle: &str) {
     let o = relief(args);
     assert_eq!(o.status.code(), Some(2), "{args:?}");
@@ -171,7 +208,10 @@ fn bad_input_is_one_line_and_exit_2() {
     a.extend(["--ray-start", "0,nan", "--ray-dir", "1,1"]);
     fails(&a, "error");
     fails(&base_args("cascades", &dem, out_s), "--eye");
-    fails(&base_args("silhouette", &dem, out_s), "silhouette");
+    fails(&base_args("silhouette", &dem, out_s), "--eye");
+    let mut a = base_args("silhouette", &dem, out_s);
+    a.extend(["--eye=16,-20,15", "--target", "16,20,0", "--levels", "40"]);
+    fails(&a, "level");
     let mut a = base_args("refine", &dem, out_s);
     a.extend(["--crop", "30,30,10,10"]);
     fails(&a, "--crop");

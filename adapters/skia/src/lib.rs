@@ -13,6 +13,7 @@
 //! | adaptive cells and influence circles | [`rbf::rbf`] | Cornel et al. 2022 (seed 002), figure 2 |
 //! | frustum, hull, splits, snapped cascades | [`rbf::cascades`] | seed 002, figure 1a |
 //! | refined mesh by level, circles, frustum, culling | [`refine::refine`] | Balogh 2003 (seed 004), figures 5-11 |
+//! | silhouette map and partitioning-tree levels | [`silhouette::silhouette`] | Sakalauskas (seed 000), figure 9 (c)-(e) |
 //!
 //! Colours are the Okabe-Ito palette ([`style`]), readable with the common colour-vision
 //! deficiencies, and viridis for scalar fields. Labels are set in the bundled DejaVu Sans
@@ -46,6 +47,7 @@ pub mod dda;
 mod overlay;
 pub mod rbf;
 pub mod refine;
+pub mod silhouette;
 pub mod style;
 mod text;
 

@@ -457,3 +457,48 @@ fn intercepts_and_lengths_are_consistent_in_every_octant() {
         }
     }
 }
+
+// ---------- silhouette: seed 000, figure 9 ----------
+
+fn silhouette_camera() -> Camera {
+    Camera::new(
+        Vec3::new(32.0, -30.0, 28.0),
+        Vec3::new(32.0, 40.0, 0.0),
+        50.0,
+        240,
+        160,
+    )
+    .unwrap()
+}
+
+#[test]
+fn golden_silhouette() {
+    let s = samples();
+    let hf = Heightfield::new(&s, N, N).unwrap();
+    let p = relief_skia::silhouette::silhouette(&hf, &silhouette_camera(), 0.01, &[2, 3], &opts())
+        .unwrap();
+    check("silhouette", &p);
+}
+
+#[test]
+fn silhouette_follows_the_camera_and_levels() {
+    let s = samples();
+    let hf = Heightfield::new(&s, N, N).unwrap();
+    let a = relief_skia::silhouette::silhouette(&hf, &silhouette_camera(), 0.01, &[2], &opts())
+        .unwrap();
+    let b = relief_skia::silhouette::silhouette(&hf, &silhouette_camera(), 0.01, &[5], &opts())
+        .unwrap();
+    assert_ne!(a, b);
+    let other = Camera::new(
+        Vec3::new(10.0, -30.0, 20.0),
+        Vec3::new(40.0, 40.0, 0.0),
+        50.0,
+        240,
+        160,
+    )
+    .unwrap();
+    let c = relief_skia::silhouette::silhouette(&hf, &other, 0.01, &[2], &opts()).unwrap();
+    assert_ne!(a, c);
+    assert!(relief_skia::silhouette::silhouette(&hf, &other, 0.01, &[40], &opts()).is_err());
+    assert!(relief_skia::silhouette::silhouette(&hf, &other, -1.0, &[2], &opts()).is_err());
+}

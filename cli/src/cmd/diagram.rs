@@ -24,7 +24,7 @@ pub enum Kind {
     Refine,
     /// Cell DDA vs run-length DDA of one ray (grid units), short and long runs with intercepts.
     Dda,
-    /// Silhouette map and tree levels (needs a CPU silhouette map in relief-core: not yet).
+    /// Silhouette map and silhouette partitioning-tree levels for a camera.
     Silhouette,
     /// Adaptive RBF cells with the influence circles of chosen cells.
     Rbf,
@@ -93,6 +93,17 @@ pub struct DiagramArgs {
     /// centre of the DEM).
     #[arg(long = "at", value_name = "X,Y", value_parser = parse_vec2)]
     at: Vec<DVec2>,
+    /// silhouette: tree levels to draw (0 is the root).
+    #[arg(
+        long,
+        value_name = "L,...",
+        value_delimiter = ',',
+        default_value = "2,3"
+    )]
+    levels: Vec<u32>,
+    /// silhouette: skip segments closer than this to the eye along the view (world units).
+    #[arg(long, value_name = "D", default_value_t = 0.01)]
+    near: f32,
     /// cascades: texels per cascade side.
     #[arg(long, value_name = "N", default_value_t = 256)]
     resolution: u32,
@@ -164,19 +175,8 @@ fn camera(a: &DiagramArgs) -> CliResult<Option<Camera>> {
     }
 }
 
-fn no_silhouette() -> CliError {
-    CliError(
-        "relief diagram silhouette: relief-core has no CPU silhouette map yet (seed 000); \
-         nothing to draw"
-            .into(),
-    )
-}
-
 /// Runs `relief diagram`.
 pub fn run(a: &DiagramArgs) -> CliResult {
-    if a.kind == Kind::Silhouette {
-        return Err(no_silhouette());
-    }
     let (dem, _) = a.dem.load()?;
     let (mut w, mut h) = (dem.width, dem.height);
     let mut samples = dem.samples.clone();
@@ -200,7 +200,7 @@ pub fn run(a: &DiagramArgs) -> CliResult {
     }
     let scale: Scale = dem.scale;
     let hf = Heightfield::with_scale(&samples, w, h, scale)?;
-    let base = if a.no_hillshade || a.kind == Kind::Dda {
+    let base = if a.no_hillshade || matches!(a.kind, Kind::Dda | Kind::Silhouette) {
         None
     } else {
         Some(hillshade(&hf, &HillshadeOptions::default())?)
@@ -332,7 +332,13 @@ pub fn run(a: &DiagramArgs) -> CliResult {
                 relief_skia::rbf::cascades(&fit, &view, &opts)?
             }
         }
-        Kind::Silhouette => return Err(no_silhouette()),
+        Kind::Silhouette => {
+            let cam = camera(a)?.ok_or_else(|| {
+                CliError("silhouette needs --eye X,Y,Z and --target X,Y,Z".into())
+            })?;
+            stats.insert("levels".into(), a.levels.clone().into());
+            relief_skia::silhouette::silhouette(&hf, &cam, a.near, &a.levels, &opts)?
+        }
     };
     relief_skia::save_png(&picture, &a.out)?;
     let name = a
