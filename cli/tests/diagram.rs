@@ -116,8 +116,16 @@ fn dda_matches_the_library() {
         stop: DVec2::new(32.0, 13.27),
         cells: [W - 1, W - 1],
     };
-    let expected =
-        relief_skia::dda::dda(&spec, &DiagramOptions::default().with_max_size(200)).unwrap();
+    let s = samples();
+    let hf = Heightfield::new(&s, W, W).unwrap();
+    let base = hillshade(&hf, &HillshadeOptions::default()).unwrap();
+    let expected = relief_skia::dda::dda(
+        &spec,
+        &DiagramOptions::default()
+            .with_max_size(200)
+            .with_background(Some(&base)),
+    )
+    .unwrap();
     assert_eq!(Pixmap::load_png(&out).unwrap(), expected);
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let seq = json["run_sequence"].as_str().unwrap();

@@ -230,6 +230,10 @@ fn kind_colour(k: RunKind) -> [u8; 3] {
 /// (blue) / truncated (purple) with the 4-connected extension cell paler, the paper's run length
 /// inside each run and `beta_j` above its first 8-connected cell.
 ///
+/// With a background (one pixel per sample, as [`crate::hillshade`] makes it for a DEM of
+/// `cells + 1` samples), the part under the window is drawn beneath both panels, cells
+/// translucent over it.
+///
 /// ```
 /// use relief_skia::dda::{dda, DdaSpec};
 /// let p = dda(&DdaSpec::seed001_figure6(), &relief_skia::DiagramOptions::default().with_max_size(400)).unwrap();
@@ -313,6 +317,14 @@ pub fn dda(spec: &DdaSpec, opts: &DiagramOptions<'_>) -> Result<Pixmap, DiagramE
     let px = c.scale();
     let font = (px * 0.55).clamp(7.0, 14.0);
     let panels = [0.0f32, ww + gap];
+    if let Some(bg) = opts.background {
+        // Samples x0..=x1, y0..=y1 of the background, row 0 at the bottom (y up).
+        if let Some(crop) = sample_window(bg, [x0, y0], [x1, y1]) {
+            for &ox in &panels {
+                c.background(&crop, [ox - 0.5, -0.5], [ox + ww + 0.5, wh + 0.5]);
+            }
+        }
+    }
     // Local units of a grid cell in panel `p`.
     let at = |p: usize, x: f32, y: f32| [panels[p] + x - x0 as f32, y - y0 as f32];
     for (p, &ox) in panels.iter().enumerate() {
@@ -406,6 +418,28 @@ pub fn dda(spec: &DdaSpec, opts: &DiagramOptions<'_>) -> Result<Pixmap, DiagramE
         c.label_centered(*p, t, *size, BLACK);
     }
     Ok(c.finish())
+}
+
+/// Samples `lo..=hi` of a one-pixel-per-sample picture, flipped so that sample row `lo[1]` is
+/// the picture's last row (the DDA panels draw y up); `None` if the window misses the picture.
+fn sample_window(bg: &Pixmap, lo: [u32; 2], hi: [u32; 2]) -> Option<Pixmap> {
+    let (w, h) = (hi[0].checked_sub(lo[0])? + 1, hi[1].checked_sub(lo[1])? + 1);
+    if hi[0] >= bg.width() || hi[1] >= bg.height() {
+        return None;
+    }
+    let mut out = Pixmap::new(w, h)?;
+    let src = bg.pixels();
+    let dst = out.pixels_mut();
+    for r in 0..h {
+        for x in 0..w {
+            let s = (lo[1] + r) as usize * bg.width() as usize + (lo[0] + x) as usize;
+            let d = (h - 1 - r) as usize * w as usize + x as usize;
+            if let (Some(sp), Some(dp)) = (src.get(s), dst.get_mut(d)) {
+                *dp = *sp;
+            }
+        }
+    }
+    Some(out)
 }
 
 /// The ray from its start to the stop's major coordinate, clipped to the window `[lo, hi]`.

@@ -159,6 +159,23 @@ fn golden_dda_steep_negative() {
 }
 
 #[test]
+fn golden_dda_over_hillshade() {
+    let s = samples();
+    let hf = Heightfield::new(&s, N, N).unwrap();
+    let base = hillshade(&hf, &HillshadeOptions::default()).unwrap();
+    let spec = DdaSpec {
+        start: DVec2::new(3.5, 40.25),
+        dir: DVec2::new(5.0, -2.0),
+        stop: DVec2::new(30.0, 0.0),
+        cells: [N - 1, N - 1],
+    };
+    check(
+        "dda_over_hillshade",
+        &dda(&spec, &opts().with_background(Some(&base))).unwrap(),
+    );
+}
+
+#[test]
 fn a_different_ray_draws_different_cells() {
     let a = DdaSpec::seed001_figure6();
     let b = DdaSpec {

@@ -200,7 +200,7 @@ pub fn run(a: &DiagramArgs) -> CliResult {
     }
     let scale: Scale = dem.scale;
     let hf = Heightfield::with_scale(&samples, w, h, scale)?;
-    let base = if a.no_hillshade || matches!(a.kind, Kind::Dda | Kind::Silhouette) {
+    let base = if a.no_hillshade || a.kind == Kind::Silhouette {
         None
     } else {
         Some(hillshade(&hf, &HillshadeOptions::default())?)
