@@ -143,6 +143,7 @@ pub fn rbf(
         let col = CHOSEN[n % CHOSEN.len()];
         let (a, b) = area(k);
         c.fill_rect(a, b, rgba(col, 0.85));
+        c.stroke_rect(a, b, rgba(col, 1.0), 2.5, false);
         let ctr = k.center();
         c.circle(
             [ctr.x, ctr.y],

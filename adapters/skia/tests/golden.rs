@@ -242,7 +242,7 @@ fn with_rbf<R>(max_error: f32, f: impl FnOnce(&Rbf<'_>) -> R) -> R {
 
 fn chosen(rbf: &Rbf<'_>) -> Vec<usize> {
     [
-        Vec2::new(34.0, 30.0),
+        Vec2::new(40.0, 14.0),
         Vec2::new(20.0, 22.0),
         Vec2::new(4.0, 60.0),
     ]
