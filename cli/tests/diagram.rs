@@ -251,3 +251,61 @@ fn bad_input_is_one_line_and_exit_2() {
     );
     assert!(!out.exists(), "no file is written on failure");
 }
+
+#[test]
+fn bundled_dem_refine_and_rbf() {
+    let dem = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/puget_sound_1k.png");
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.png");
+    let out_s = out.to_str().unwrap();
+    let o = relief(&[
+        "diagram",
+        "refine",
+        "--dem",
+        dem,
+        "--dx",
+        "160",
+        "--dy",
+        "160",
+        "--z-scale",
+        "0.1",
+        "--crop",
+        "0,0,129,129",
+        "--eye=-2000,-2000,3000",
+        "--target",
+        "10000,10000,0",
+        "--pixel-error",
+        "3",
+        "--circle-level",
+        "8",
+        "--max-size",
+        "300",
+        "--out",
+        out_s,
+        "--json",
+    ]);
+    ok(&o);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(json["triangles"].as_u64().unwrap() > 2);
+    assert!(Pixmap::load_png(&out).unwrap().width() >= 300);
+    let o = relief(&[
+        "diagram",
+        "rbf",
+        "--dem",
+        dem,
+        "--z-scale",
+        "0.1",
+        "--crop",
+        "256,256,128,128",
+        "--at",
+        "64,64",
+        "--max-size",
+        "300",
+        "--out",
+        out_s,
+        "--json",
+    ]);
+    ok(&o);
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(json["cells"].as_u64().unwrap() > 1);
+}
