@@ -20,6 +20,8 @@
 //! - [`Composed`]: a base map plus a tiled detail map (Balogh 2003, chapter 6).
 //! - [`Terrain`]: the trait both implement; surfaces, gradients, cell bounds.
 //! - [`normal`], [`normal_map`], [`Composed::summed_normal`]: normals from finite differences.
+//! - [`ray`]: ray traversal and intersection: cell and run-length DDA, maximum mipmaps, marching
+//!   ([`RayTracer`], [`Ray`], [`Hit`]).
 //!
 //! ```
 //! use relief_core::{normal, Heightfield, NormalMethod, Scale, Surface, Terrain};
