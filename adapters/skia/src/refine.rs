@@ -265,9 +265,16 @@ pub fn refine<T: Terrain>(
         .zip(&names)
         .map(|(&l, n)| (rgba(viridis(l as f32 / levels), alpha), n.as_str()))
         .collect();
+    // The full layout stores nested spheres (drawn as their top-view circles), the compact one
+    // seed 004's level circles.
+    let what = if input.hierarchy.bytes_per_vertex() == 8 {
+        "bounding spheres (top view)"
+    } else {
+        "bounding circles"
+    };
     let circles = input.circle_level.map_or_else(
-        || "bounding circles (none chosen)".to_string(),
-        |l| format!("bounding circles, level {l}"),
+        || format!("{what} (no level chosen)"),
+        |l| format!("{what}, level {l}"),
     );
     let row2 = [
         (rgba(BLACK, 0.9), "active vertex"),
