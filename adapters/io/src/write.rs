@@ -45,6 +45,16 @@ pub fn write_atomic(
         body(&mut w).map_err(io_err(path))?;
         w.flush().map_err(io_err(path))?;
     }
+    // Temporary files are created private (0600); give the result the permissions of the file it
+    // replaces, or the usual 0644 for a new one.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let perms = std::fs::metadata(path)
+            .map(|m| m.permissions())
+            .unwrap_or_else(|_| std::fs::Permissions::from_mode(0o644));
+        tmp.as_file().set_permissions(perms).map_err(io_err(path))?;
+    }
     tmp.as_file().sync_all().map_err(io_err(path))?;
     tmp.persist(path).map_err(|e| IoError::Io {
         path: path.to_path_buf(),

@@ -441,3 +441,22 @@ fn header_claiming_more_than_the_file_can_hold_is_rejected_without_allocating() 
     let e = decode_dem(bytes, &opts(Format::TerrainRgb)).unwrap_err();
     assert!(matches!(e, IoError::Decode { .. }), "{e}");
 }
+
+#[cfg(unix)]
+#[test]
+fn written_files_are_readable_by_others_or_keep_their_permissions() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("d.f32");
+    relief_io::write_raw_f32(&p, &[1.0]).unwrap();
+    assert_eq!(
+        std::fs::metadata(&p).unwrap().permissions().mode() & 0o777,
+        0o644
+    );
+    std::fs::set_permissions(&p, std::fs::Permissions::from_mode(0o640)).unwrap();
+    relief_io::write_raw_f32(&p, &[2.0]).unwrap();
+    assert_eq!(
+        std::fs::metadata(&p).unwrap().permissions().mode() & 0o777,
+        0o640
+    );
+}
