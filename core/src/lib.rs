@@ -22,6 +22,8 @@
 //! - [`normal`], [`normal_map`], [`Composed::summed_normal`]: normals from finite differences.
 //! - [`ray`]: ray traversal and intersection: cell and run-length DDA, maximum mipmaps, marching
 //!   ([`RayTracer`], [`Ray`], [`Hit`]).
+//! - [`silhouette`]: the silhouette map and partitioning-tree envelopes of Sakalauskas (seed 000)
+//!   on the CPU, a reference for the GPU passes.
 //!
 //! ```
 //! use relief_core::{normal, Heightfield, NormalMethod, Scale, Surface, Terrain};
