@@ -23,11 +23,27 @@ pub enum Layout {
     Compact,
 }
 
+/// Meshing method.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Method {
+    /// SOAR refinement of the regular grid (relief_core::refine).
+    Rqt,
+    /// Greedy-insertion Delaunay TIN (relief-tin; Garland & Heckbert 1995), view-independent.
+    Tin,
+}
+
 /// Options of `relief mesh`.
 #[derive(Debug, Args)]
 pub struct MeshArgs {
     #[command(flatten)]
     dem: DemArgs,
+    /// Meshing method: `rqt` (refinement) or `tin` (greedy Delaunay TIN, which takes
+    /// --max-error and/or --max-vertices; its whole build is reported in refine_ms).
+    #[arg(long, value_enum, default_value = "rqt")]
+    method: Method,
+    /// TIN only: stop at this many vertices.
+    #[arg(long, value_name = "N")]
+    max_vertices: Option<u32>,
     /// View-independent: largest vertical error allowed (world z units).
     #[arg(long, value_name = "E", conflicts_with_all = ["eye", "pixel_error"])]
     max_error: Option<f32>,
@@ -86,6 +102,18 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 
 /// Runs `relief mesh`.
 pub fn run(a: &MeshArgs) -> CliResult {
+    if a.method == Method::Tin {
+        if a.eye.is_some() {
+            return Err(CliError(
+                "relief mesh --method tin is view-independent: give --max-error and/or --max-vertices, not --eye".into(),
+            ));
+        }
+        let (dem, _) = a.dem.load()?;
+        return super::mesh_tin::run_tin(&dem, a.max_error, a.max_vertices, &a.out, a.json);
+    }
+    if a.max_vertices.is_some() {
+        return Err(CliError("--max-vertices needs --method tin".into()));
+    }
     let criterion_kind = match (a.max_error, a.eye) {
         (Some(_), None) => "view-independent",
         (None, Some(_)) => "view-dependent",

@@ -12,8 +12,6 @@ use std::time::Instant;
 /// Builds the TIN of `dem` until its vertical error is at most `max_error` (world z units) and/or
 /// it has `max_vertices` vertices, whichever comes first (at least one must be given), writes it
 /// to `out` as OBJ and prints statistics (one JSON object with `json`).
-// Reached through `relief mesh --method tin` once cli/src/cmd/mesh.rs dispatches here.
-#[allow(dead_code)]
 pub fn run_tin(
     dem: &relief_io::Dem,
     max_error: Option<f32>,
