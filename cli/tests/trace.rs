@@ -1,0 +1,158 @@
+//! `relief trace` on the bundled DEM: every method, the depth file per CONVENTIONS.md, the JSON
+//! fields, and one-line errors with exit code 2 on bad input.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn relief(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_relief"))
+        .args(args)
+        .output()
+        .expect("run relief")
+}
+
+fn bundled() -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../data/puget_sound_1k.png")
+        .display()
+        .to_string()
+}
+
+fn assert_one_line_error(out: &Output, needle: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert_eq!(err.lines().count(), 1, "not one line: {err:?}");
+    assert!(err.starts_with("relief: error: "), "{err:?}");
+    assert!(!err.contains("panicked"), "{err:?}");
+    assert!(
+        err.to_lowercase().contains(&needle.to_lowercase()),
+        "{err:?} should mention {needle:?}"
+    );
+}
+
+fn trace(dir: &Path, method: &str, surface: &str, extra: &[&str]) -> (Vec<f32>, serde_json::Value) {
+    let out_path: PathBuf = dir.join(format!("{method}-{surface}.f32"));
+    let dem = bundled();
+    let out_s = out_path.display().to_string();
+    let mut args = vec![
+        "trace",
+        "--dem",
+        &dem,
+        "--dx",
+        "160",
+        "--dy",
+        "160",
+        "--z-scale",
+        "0.1",
+        "--eye",
+        "20000,15000,9000",
+        "--target",
+        "90000,100000,0",
+        "--fov",
+        "60",
+        "--size",
+        "40x24",
+        "--method",
+        method,
+        "--surface",
+        surface,
+        "--out",
+        &out_s,
+        "--json",
+    ];
+    args.extend_from_slice(extra);
+    let out = relief(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    let bytes = std::fs::read(&out_path).unwrap();
+    assert_eq!(bytes.len(), 40 * 24 * 4);
+    let depth: Vec<f32> = bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    (depth, v)
+}
+
+#[test]
+fn all_methods_write_the_same_depth_image() {
+    let dir = tempfile::tempdir().unwrap();
+    for surface in ["triangles", "bilinear", "plane", "nearest"] {
+        let (base, v) = trace(dir.path(), "cell-dda", surface, &[]);
+        assert!(base.iter().all(|d| !d.is_nan() && *d > 0.0));
+        let hits = base.iter().filter(|d| d.is_finite()).count() as u64;
+        assert!(hits > 100 && hits < 40 * 24, "{hits}");
+        for key in [
+            "rays",
+            "hits",
+            "preprocess_ms",
+            "trace_ms",
+            "rays_per_s",
+            "cells_visited",
+        ] {
+            assert!(v.get(key).is_some(), "missing {key}");
+        }
+        assert_eq!(v["rays"], 960);
+        assert_eq!(v["hits"], hits);
+        for method in ["run-dda", "maxmip"] {
+            let (d, v) = trace(dir.path(), method, surface, &["--threads", "2"]);
+            assert_eq!(v["hits"], hits);
+            for (a, b) in base.iter().zip(&d) {
+                assert_eq!(a.is_finite(), b.is_finite());
+                if a.is_finite() {
+                    assert!((a - b).abs() <= 1e-5 * a, "{method} {surface}: {a} vs {b}");
+                }
+            }
+        }
+    }
+    let (d, v) = trace(dir.path(), "march", "triangles", &["--samples", "64"]);
+    assert!(d.iter().all(|x| !x.is_nan()));
+    assert!(v["march_step_cells_max"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn bad_input_gives_one_line_and_exit_2() {
+    let dem = bundled();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("d.f32").display().to_string();
+    let base = |eye: &str, target: &str, size: &str, extra: &[&str]| {
+        let mut a = vec![
+            "trace", "--dem", &dem, "--eye", eye, "--target", target, "--size", size, "--out", &out,
+        ]
+        .into_iter()
+        .map(String::from)
+        .collect::<Vec<_>>();
+        a.extend(extra.iter().map(|s| s.to_string()));
+        let refs: Vec<&str> = a.iter().map(|s| s.as_str()).collect();
+        relief(&refs)
+    };
+    assert_one_line_error(&base("1,2", "5,5,0", "8x8", &[]), "X,Y,Z");
+    assert_one_line_error(&base("1,2,nan", "5,5,0", "8x8", &[]), "finite");
+    assert_one_line_error(&base("1,2,3", "5,5,0", "8by8", &[]), "WxH");
+    assert_one_line_error(&base("1,2,3", "5,5,0", "0x8", &[]), "at least");
+    assert_one_line_error(&base("5,5,10", "5,5,0", "8x8", &[]), "straight");
+    assert_one_line_error(&base("1,2,3", "5,5,0", "8x8", &["--fov", "190"]), "fov");
+    assert_one_line_error(&base("1,2,3", "5,5,0", "8x8", &["--method", "bvh"]), "bvh");
+    assert_one_line_error(
+        &base("1,2,3", "5,5,0", "8x8", &["--surface", "cubic"]),
+        "cubic",
+    );
+    assert_one_line_error(
+        &base(
+            "1,2,3",
+            "5,5,0",
+            "8x8",
+            &["--method", "march", "--samples", "0"],
+        ),
+        "samples",
+    );
+    assert_one_line_error(&base("1,2,3", "5,5,0", "8x8", &["--samples", "8"]), "march");
+    assert_one_line_error(
+        &base("1,2,3", "5,5,0", "8x8", &["--threads", "0"]),
+        "threads",
+    );
+    assert!(!Path::new(&out).exists());
+}
