@@ -54,7 +54,7 @@ mod strip;
 mod tests;
 
 pub use grid::RefineGrid;
-pub use scan::{coverage_len, vertical_error, vertical_error_partial};
+pub use scan::{coverage_len, vertical_error, vertical_error_partial, Uncovered};
 pub use select::{Criterion, FrameCounts, MorphVertex, Refiner, StripCounts, View};
 
 use crate::{Error, Scale, Terrain};
@@ -137,7 +137,7 @@ pub(crate) enum ErrorStore<'a> {
 pub struct Hierarchy<'a> {
     grid: RefineGrid,
     scale: Scale,
-    errors: ErrorStore<'a>,
+    pub(crate) errors: ErrorStore<'a>,
     radii: Option<&'a [f32]>,
     z_min: f32,
     z_max: f32,

@@ -96,9 +96,14 @@ pub(crate) fn triangle_error(t: &impl Terrain, g: &RefineGrid, p: [(i64, i64); 3
             };
             let mut e = 0.0f64;
             for_each_span(p[0], p[1], p[2], |y, lo, hi| {
+                // A register accumulator per row (the captured `e` would be stored every step).
+                let mut row = 0.0f64;
                 for x in lo..=hi {
                     let d = (local(t, x, y) - plane.at(x, y)).abs();
-                    e = e.max(d);
+                    row = if d > row { d } else { row };
+                }
+                if row > e {
+                    e = row;
                 }
             });
             e

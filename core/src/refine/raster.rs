@@ -17,7 +17,17 @@ pub(crate) struct Plane {
 impl Plane {
     /// `None` for a degenerate (collinear) triangle.
     pub(crate) fn new(mut p: [(i64, i64, f64); 3]) -> Option<Plane> {
-        p.sort_unstable_by_key(|a| (a.1, a.0));
+        // A three-element sorting network by (y, x) (the generic sort is slow for three).
+        let key = |q: &(i64, i64, f64)| (q.1, q.0);
+        if key(&p[1]) < key(&p[0]) {
+            p.swap(0, 1);
+        }
+        if key(&p[2]) < key(&p[1]) {
+            p.swap(1, 2);
+        }
+        if key(&p[1]) < key(&p[0]) {
+            p.swap(0, 1);
+        }
         let [(x0, y0, z0), (x1, y1, z1), (x2, y2, z2)] = p;
         let (ax, ay, az) = ((x1 - x0) as f64, (y1 - y0) as f64, z1 - z0);
         let (bx, by, bz) = ((x2 - x0) as f64, (y2 - y0) as f64, z2 - z0);
@@ -68,15 +78,30 @@ pub(crate) fn for_each_span(
             let (qx, qy) = p[(k + 1) % 3];
             let (ex, ey) = (qx - px, qy - py);
             // Inside (left of or on the edge): ex (y - py) - ey (x - px) >= 0.
-            let rhs = ex * (y - py) + ey * px; // ey * x <= rhs
+            if ey == 0 {
+                if ex * (y - py) < 0 {
+                    empty = true;
+                }
+                continue;
+            }
+            // ey * x <= ex (y - py) + ey px. Axis-parallel and 45-degree edges (every hierarchy
+            // triangle) divide exactly: no integer division.
+            let bound_floor_ceil = if ex == 0 {
+                (px, px)
+            } else if ex == ey {
+                (px + (y - py), px + (y - py))
+            } else if ex == -ey {
+                (px - (y - py), px - (y - py))
+            } else {
+                let rhs = ex * (y - py) + ey * px;
+                let (n, d) = if ey > 0 { (rhs, ey) } else { (-rhs, -ey) };
+                (n.div_euclid(d), -((-n).div_euclid(d)))
+            };
             if ey > 0 {
-                hi = hi.min(rhs.div_euclid(ey));
-            } else if ey < 0 {
-                // x >= rhs / ey (dividing by a negative flips the inequality): ceil.
-                let (n, d) = (-rhs, -ey);
-                lo = lo.max(-((-n).div_euclid(d)));
-            } else if ex * (y - py) < 0 {
-                empty = true;
+                hi = hi.min(bound_floor_ceil.0);
+            } else {
+                // Dividing by a negative flips the inequality: x >= ceil(rhs / ey).
+                lo = lo.max(bound_floor_ceil.1);
             }
         }
         if !empty && lo <= hi {

@@ -50,6 +50,15 @@ pub fn vertical_error<T: Terrain>(
     }
 }
 
+/// The first sample no triangle covers, `(x, y)`, and how many are uncovered; `None` when the
+/// mesh covers the whole grid.
+///
+/// ```
+/// let u: relief_core::refine::Uncovered = Some((0, 1, 1));
+/// assert_eq!(u.map(|(_, _, n)| n), Some(1));
+/// ```
+pub type Uncovered = Option<(u32, u32, usize)>;
+
 /// [`vertical_error`] for meshes with holes (view-dependent meshes with culling): the maximum
 /// over the samples the mesh covers, and the first uncovered sample `(x, y)` with the number of
 /// uncovered samples (`None` when the mesh covers the whole grid).
@@ -68,7 +77,7 @@ pub fn vertical_error_partial<T: Terrain>(
     vertices: &[[f32; 3]],
     triangles: &[[u32; 3]],
     coverage: &mut [u64],
-) -> Result<(f64, Option<(u32, u32, usize)>), Error> {
+) -> Result<(f64, Uncovered), Error> {
     let (w, h) = (terrain.width() as usize, terrain.height() as usize);
     let n = w * h;
     let words = n.div_ceil(64);

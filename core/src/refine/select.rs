@@ -512,14 +512,16 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             // The kept set is known: every in-domain vertex with error > E (corners and forced
             // vertices are +inf). A triangulated rectangle has 2V - B - 2 triangles.
             let e = self.max_error;
-            for (wi, word) in bits.iter_mut().enumerate() {
-                let mut b = 0u64;
-                let base = wi * 64;
-                let top = (n - base).min(64);
-                for k in 0..top {
-                    b |= ((self.h.err_at(base + k) > e) as u64) << k;
+            match self.h.errors {
+                super::ErrorStore::F32(errs) => {
+                    fill_bits(bits, errs.get(..n).unwrap_or(errs), |&x| x > e)
                 }
-                *word = b;
+                super::ErrorStore::Bf16(errs) => {
+                    // Codes are monotone in the error: compare codes with E's code, rounded
+                    // so that code > c_e exactly when decode(code) > E.
+                    let ce = bf16_floor_code(e);
+                    fill_bits(bits, errs.get(..n).unwrap_or(errs), |&c| c > ce)
+                }
             }
             let v = count_bits(bits);
             let border = self.border_count(bits);
@@ -821,6 +823,23 @@ pub(crate) fn split_scratch(scratch: &mut [u64], n: usize) -> (&mut [u64], &mut 
     let (bits, rest) = scratch.split_at_mut(words.min(scratch.len()));
     let prefix = rest.get_mut(..words).unwrap_or(&mut []);
     (bits, prefix)
+}
+
+/// Sets bit `k` of the bitmap when `keep(values[k])`, 64 values per word (vectorisable).
+fn fill_bits<V>(bits: &mut [u64], values: &[V], keep: impl Fn(&V) -> bool) {
+    for (word, chunk) in bits.iter_mut().zip(values.chunks(64)) {
+        let mut b = 0u64;
+        for (k, v) in chunk.iter().enumerate() {
+            b |= (keep(v) as u64) << k;
+        }
+        *word = b;
+    }
+}
+
+/// The largest bfloat16 code whose value is `<= e` (`e >= 0` finite): `decode(c) > e` exactly
+/// when `c > bf16_floor_code(e)`.
+fn bf16_floor_code(e: f32) -> u16 {
+    (e.max(0.0).to_bits() >> 16) as u16
 }
 
 fn count_bits(bits: &[u64]) -> usize {

@@ -145,6 +145,11 @@ fn buffer_one_too_small_is_an_error() {
     let mut t2 = vec![[0; 3]; c.triangles];
     assert!(r.triangles(&mut sc, &mut v2, &mut t2).is_err());
     assert!(r.count(&mut sc[1..]).is_err());
+    // A longer error buffer than needed changes nothing.
+    let mut long = vec![0u16; 300];
+    let hl = preprocess_compact(&hf, &mut long).unwrap();
+    let rl = Refiner::new(&hl, &hf, Criterion::MaxError(2.0)).unwrap();
+    assert_eq!(rl.count(&mut sc).unwrap(), c);
     let mut e2 = vec![0u16; 288];
     assert!(preprocess_compact(&hf, &mut e2).is_err());
 }

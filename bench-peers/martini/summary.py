@@ -1,0 +1,39 @@
+"""Markdown tables from martini_peers.sh's JSON lines: per DEM and E, triangles at equal
+measured error (relief at E against martini at E') and times as ratios in the same run."""
+import json
+import sys
+from collections import defaultdict
+
+rows = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
+by = defaultdict(dict)
+for r in rows:
+    by[(r["dem"], r["E"])][r["tool"]] = r
+
+print("| DEM (grid) | E (m) | relief tris (measured err) | martini at E: tris (measured err) | martini E' | martini tris at E' | relief / martini tris at equal error | relief mesh ms | martini getMesh ms | pymartini get_mesh ms | speed-up vs martini / pymartini (tris/s) |")
+print("|---|---|---|---|---|---|---|---|---|---|---|")
+tot_r = tot_m = 0
+worst = 0
+for (dem, e), t in sorted(by.items(), key=lambda k: (k[0][0], k[0][1])):
+    r, m, p = t.get("relief-full"), t.get("martini"), t.get("pymartini")
+    if not (r and m):
+        continue
+    ratio = r["triangles"] / m["triangles_equal"]
+    worst = max(worst, ratio)
+    tot_r += r["triangles"]
+    tot_m += m["triangles_equal"]
+    rr = r["triangles"] / r["mesh_ms"]
+    sm = rr / (m["triangles"] / m["mesh_ms"])
+    sp = rr / (p["triangles"] / p["mesh_ms"]) if p else float("nan")
+    print(f"| {dem} ({r['n']}^2) | {e:g} | {r['triangles']} ({r['measured']:.3f}) | {m['triangles']} ({m['measured']:.3f}) | {m['E_equal']:.4g} | {m['triangles_equal']} | {ratio:.3f} | {r['mesh_ms']:.2f} | {m['mesh_ms']:.2f} | {p['mesh_ms'] if p else float('nan'):.2f} | {sm:.1f}x / {sp:.1f}x |")
+print()
+print(f"Total triangles at equal measured error: relief {tot_r}, martini {tot_m}, ratio {tot_r / max(tot_m, 1):.3f}; worst single case {worst:.3f}.")
+print()
+print("| DEM | relief preprocess ms (full / compact) | martini createTile ms | pymartini create_tile ms |")
+print("|---|---|---|---|")
+seen = set()
+for (dem, e), t in sorted(by.items()):
+    if dem in seen or "martini" not in t:
+        continue
+    seen.add(dem)
+    rf, rc, m, p = t.get("relief-full"), t.get("relief-compact"), t["martini"], t.get("pymartini")
+    print(f"| {dem} | {rf['create_ms']:.1f} / {rc['create_ms']:.1f} | {m['create_ms']:.1f} | {p['create_ms'] if p else float('nan'):.1f} |")
