@@ -507,8 +507,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let words = n.div_ceil(64);
         need(2 * words, scratch.len())?;
         let (bits, prefix) = split_scratch(scratch, n);
-        let triangles;
-        if self.view.is_none() {
+        let triangles = if self.view.is_none() {
             // The kept set is known: every in-domain vertex with error > E (corners and forced
             // vertices are +inf). A triangulated rectangle has 2V - B - 2 triangles.
             let e = self.max_error;
@@ -525,7 +524,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             }
             let v = count_bits(bits);
             let border = self.border_count(bits);
-            triangles = (2 * v).saturating_sub(border + 2);
+            (2 * v).saturating_sub(border + 2)
         } else {
             bits.fill(0);
             let mut sink = MarkSink {
@@ -534,8 +533,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 n: 0,
             };
             self.walk_all(&mut sink, false);
-            triangles = sink.n;
-        }
+            sink.n
+        };
         let mut acc = 0u64;
         for (p, &b) in prefix.iter_mut().zip(bits.iter()) {
             *p = acc;
