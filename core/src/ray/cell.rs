@@ -152,7 +152,7 @@ pub(crate) fn intersect(
             if fb <= 0.0 {
                 let t = ta + (tb - ta) * (fa / (fa - fb));
                 return Some(CellHit {
-                    t: t.clamp(ta, tb),
+                    t: t.max(ta).min(tb),
                     n,
                 });
             }
@@ -206,7 +206,7 @@ fn triangles_hit(
         if fb <= 0.0 {
             let t = a + (b - a) * (fa / (fa - fb));
             return Some(CellHit {
-                t: t.clamp(a, b),
+                t: t.max(a).min(b),
                 n: unit_normal_tri(h, upper),
             });
         }
@@ -264,7 +264,7 @@ fn bilinear_hit(
     } else {
         return None;
     };
-    let s = root.clamp(0.0, len);
+    let s = root.max(0.0).min(len);
     Some(CellHit {
         t: ta + s,
         n: normal(s),
@@ -355,7 +355,7 @@ fn nearest_hit(
         if ray.z(b) <= hq && ray.d.z < 0.0 {
             let t = a + (hq - za) / ray.d.z;
             return Some(CellHit {
-                t: t.clamp(a, b),
+                t: t.max(a).min(b),
                 n: DVec3::Z,
             });
         }

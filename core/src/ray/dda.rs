@@ -128,12 +128,12 @@ impl GridLine {
             return Err(Error::SizeOverflow);
         }
         let ext = cells.as_dvec2();
-        let start = start.clamp(DVec2::ZERO, ext);
+        let start = start.max(DVec2::ZERO).min(ext);
         let degenerate = dir.x == 0.0 && dir.y == 0.0;
         let stop = if degenerate {
             start
         } else {
-            stop.clamp(DVec2::ZERO, ext)
+            stop.max(DVec2::ZERO).min(ext)
         };
         let swap = dir.y.abs() > dir.x.abs();
         let (mu, mv, su, sv, eu, ev, nu, nv) = if swap {
@@ -167,7 +167,8 @@ impl GridLine {
         let q = dxi << FRAC_BITS;
         let a = dyi << FRAC_BITS;
         let (r, rho) = if a > 0 {
-            (q / a, q - (q / a) * a)
+            let r = q.checked_div(a).unwrap_or(0);
+            (r, q - r * a)
         } else {
             (0, 0)
         };
@@ -177,8 +178,8 @@ impl GridLine {
         let vf = libm::round(fold(sv, pos_v) * one) as i64;
         let (umin, umax) = folded_range(nu, pos_u);
         let (vmin, vmax) = folded_range(nv, pos_v);
-        let u0 = (uf >> FRAC_BITS).clamp(umin, umax);
-        let v0 = (vf >> FRAC_BITS).clamp(vmin, vmax);
+        let u0 = (uf >> FRAC_BITS).max(umin).min(umax);
+        let v0 = (vf >> FRAC_BITS).max(vmin).min(vmax);
         // In [-A, Q]: both factors are below 2^21 + 1 and 2^40 + 1, so no overflow.
         let b0 = dxi * (vf - (v0 << FRAC_BITS)) + ((u0 << FRAC_BITS) - uf) * dyi;
         let (u_last, v_last) = if degenerate {
@@ -186,7 +187,7 @@ impl GridLine {
         } else {
             let ue = libm::floor(fold(eu, pos_u)) as i64;
             let ve = libm::floor(fold(ev, pos_v)) as i64;
-            (ue.clamp(umin, umax), ve.clamp(vmin, vmax))
+            (ue.max(umin).min(umax), ve.max(vmin).min(vmax))
         };
         Ok(GridLine {
             swap,
@@ -449,7 +450,10 @@ impl RunDda {
         let (n, nu, nb) = if self.first {
             self.first = false;
             // Truncated first run: one division per ray.
-            let n = ((l.q - self.b + l.a - 1) / l.a).max(1);
+            let n = (l.q - self.b + l.a - 1)
+                .checked_div(l.a)
+                .unwrap_or(1)
+                .max(1);
             let e = self.b + n * l.a;
             if e == l.q {
                 (n, u + n, 0)

@@ -110,8 +110,8 @@ pub struct MarchTrace {
 impl<T: Terrain> RayTracer<'_, T> {
     fn below(&self, lr: &cell::LocalRay, t: f64) -> bool {
         let ext = self.cells.as_dvec2();
-        let gx = (lr.o.x + t * lr.d.x).clamp(0.0, ext.x);
-        let gy = (lr.o.y + t * lr.d.y).clamp(0.0, ext.y);
+        let gx = (lr.o.x + t * lr.d.x).max(0.0).min(ext.x);
+        let gy = (lr.o.y + t * lr.d.y).max(0.0).min(ext.y);
         let cx = (libm::floor(gx) as u32).min(self.cells.x - 1);
         let cy = (libm::floor(gy) as u32).min(self.cells.y - 1);
         let h = self.corners(cx, cy);
@@ -152,7 +152,7 @@ impl<T: Terrain> RayTracer<'_, T> {
             let dz = ray.dir.normalize_or_zero().z.abs();
             let lo = opts.min_samples.min(opts.samples) as f64;
             let hi = opts.samples as f64;
-            libm::round(lo + (hi - lo) * (1.0 - dz)).clamp(1.0, hi) as u32
+            libm::round(lo + (hi - lo) * (1.0 - dz)).max(1.0).min(hi) as u32
         } else {
             opts.samples
         };
@@ -191,8 +191,8 @@ impl<T: Terrain> RayTracer<'_, T> {
         }
         out.bracket = hi - lo;
         let ext = self.cells.as_dvec2();
-        let gx = (lr.o.x + hi * lr.d.x).clamp(0.0, ext.x);
-        let gy = (lr.o.y + hi * lr.d.y).clamp(0.0, ext.y);
+        let gx = (lr.o.x + hi * lr.d.x).max(0.0).min(ext.x);
+        let gy = (lr.o.y + hi * lr.d.y).max(0.0).min(ext.y);
         let cx = (libm::floor(gx) as u32).min(self.cells.x - 1);
         let cy = (libm::floor(gy) as u32).min(self.cells.y - 1);
         let [h00, h10, h01, h11] = self.corners(cx, cy);

@@ -354,8 +354,8 @@ impl<T: Terrain> RayTracer<'_, T> {
                 let px = lr.o.x + ta * lr.d.x;
                 let py = lr.o.y + ta * lr.d.y;
                 let (w, h) = (dim(mip.nx, lvl) as i64, dim(mip.ny, lvl) as i64);
-                ix = ((px * inv) as i64).clamp(2 * ix, 2 * ix + 1).min(w - 1);
-                iy = ((py * inv) as i64).clamp(2 * iy, 2 * iy + 1).min(h - 1);
+                ix = ((px * inv) as i64).max(2 * ix).min(2 * ix + 1).min(w - 1);
+                iy = ((py * inv) as i64).max(2 * iy).min(2 * iy + 1).min(h - 1);
                 continue;
             }
             // Skip the node: leave through the face crossed first (both at a corner).

@@ -84,7 +84,9 @@ impl<'a> RunAccel<'a> {
         let levels = levels_for(nx, ny);
         let (nxs, nys) = (nx as usize, ny as usize);
         let plane = nxs * nys;
-        let (rows, cols) = buf.split_at_mut(levels as usize * plane);
+        let (rows, cols) = buf
+            .split_at_mut_checked(levels as usize * plane)
+            .ok_or(Error::SizeOverflow)?;
         // Level 0: cell maxima, row-major in `rows`, column-major in `cols`.
         for y in 0..ny {
             for x in 0..nx {
