@@ -2,16 +2,17 @@
 # TIN peer comparison: relief's greedy TIN (`relief mesh --method tin`) against pydelatin 0.4.0
 # (PyPI, C++ fogleman/hmm) and delatin 0.2.0 (npm, JS mapbox/delatin) on the same heights at the
 # same max error E. Every tool reads the same raw f32 file (decoded once by dem_to_raw.py), so the
-# inputs are bit-identical. Times are the best of REPS runs of each tool's whole build, measured
-# inside the tool (relief: refine_ms; pydelatin: the Delatin() call; delatin: constructor + run).
+# inputs are bit-identical. Times are each tool's whole build, measured inside the tool (relief:
+# refine_ms; pydelatin: the Delatin() call; delatin: constructor + run), fastest of ROUNDS
+# interleaved rounds of two runs each (the second run of a Python or Node process is warm).
 #
-# usage: bench-peers/tin_peers.sh            (env: REPS=3, DATA=../shared/data, RELIEF=path)
+# usage: bench-peers/tin_peers.sh            (env: ROUNDS=3, DATA=../shared/data, RELIEF=path)
 # prints one JSON line per tool, DEM and E, then a table (tin_summary.py).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 root=$(dirname "$here")
 DATA=${DATA:-$root/../shared/data}
-REPS=${REPS:-3}
+ROUNDS=${ROUNDS:-3}
 cd "$here"
 
 # Peers, installed from the registries into this folder (git-ignored).
@@ -40,35 +41,32 @@ specs=(
     "topotoolbox_srtm_bigtujunga30m_utm11.tif:tiff:1 5 20"
     "pysheds_dem.tif:tiff:0.5 1 5"
 )
+# Rounds are interleaved (every tool on every DEM once per round) so that load on a shared
+# machine hits all tools alike; the summary keeps each tool's fastest round.
+for round in $(seq "$ROUNDS"); do
 for spec in "${specs[@]}"; do
     IFS=: read -r name fmt errors <<<"$spec"
     src="$DATA/$name"
     if [ ! -f "$src" ]; then
-        echo "skipped: $src not present" >&2
+        [ "$round" = 1 ] && echo "skipped: $src not present" >&2
         continue
     fi
     raw="$tmp/${name%.*}.f32"
-    read -r w h < <(.venv/bin/python dem_to_raw.py "$src" "$fmt" "$raw")
+    [ -f "$raw" ] || .venv/bin/python dem_to_raw.py "$src" "$fmt" "$raw" >"$raw.size"
+    read -r w h <"$raw.size"
     # shellcheck disable=SC2086
-    .venv/bin/python pydelatin_run.py "$raw" "$w" "$h" "$REPS" $errors | sed "s/^{/{\"dem\": \"$name\", /" | tee -a "$out"
+    .venv/bin/python pydelatin_run.py "$raw" "$w" "$h" 2 $errors | sed "s/^{/{\"dem\": \"$name\", /" | tee -a "$out"
     # shellcheck disable=SC2086
-    node delatin_run.mjs "$raw" "$w" "$h" "$REPS" $errors | sed "s/^{/{\"dem\": \"$name\", /" | tee -a "$out"
-    for e in $errors; do
-        best=""
-        for _ in $(seq "$REPS"); do
-            line=$("$RELIEF" mesh --method tin --dem "$raw" --format raw-f32 --width "$w" --height "$h" \
-                --max-error "$e" --out "$tmp/tin.obj" --json)
-            best=$(printf '%s\n%s\n' "$best" "$line" | .venv/bin/python -c '
+    node delatin_run.mjs "$raw" "$w" "$h" 2 $errors | sed "s/^{/{\"dem\": \"$name\", /" | tee -a "$out"
+    for e in $errors; do for _ in 1 2; do
+        "$RELIEF" mesh --method tin --dem "$raw" --format raw-f32 --width "$w" --height "$h" \
+            --max-error "$e" --out "$tmp/tin.obj" --json | .venv/bin/python -c '
 import json, sys
-rows = [json.loads(l) for l in sys.stdin if l.strip()]
-print(json.dumps(min(rows, key=lambda r: r["refine_ms"])))')
-        done
-        printf '%s\n' "$best" | .venv/bin/python -c '
-import json, sys
-r = json.loads(sys.stdin.read())
+r = json.load(sys.stdin)
 print(json.dumps({"dem": sys.argv[1], "tool": "relief-tin", "max_error": float(sys.argv[2]),
     "vertices": r["vertices"], "triangles": r["triangles"], "error": r["max_error_measured"],
     "ms": r["refine_ms"]}))' "$name" "$e" | tee -a "$out"
-    done
+    done; done
+done
 done
 .venv/bin/python tin_summary.py <"$out"
