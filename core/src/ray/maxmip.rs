@@ -35,6 +35,9 @@ pub struct MaxMip<'a> {
     ny: u32,
     levels: u32,
     offsets: [usize; MAX_LEVELS],
+    /// Per level: nodes across, nodes down, tiles across.
+    dims: [(u32, u32, u32); MAX_LEVELS],
+    bound: u64,
 }
 
 #[inline]
@@ -46,8 +49,14 @@ fn dim(n: u32, k: u32) -> u32 {
 /// line): a node's children and its neighbours usually share a line with it.
 #[inline]
 fn tiled(w: u32, x: u32, y: u32) -> usize {
-    let tiles_x = (w as usize).div_ceil(4);
-    (((y >> 2) as usize * tiles_x + (x >> 2) as usize) << 4) + (((y & 3) << 2) | (x & 3)) as usize
+    tiled_t(w.div_ceil(4), x, y)
+}
+
+/// [`tiled`] with the tiles across already known.
+#[inline]
+fn tiled_t(tiles_x: u32, x: u32, y: u32) -> usize {
+    (((y >> 2) as usize * tiles_x as usize + (x >> 2) as usize) << 4)
+        + (((y & 3) << 2) | (x & 3)) as usize
 }
 
 /// Elements of a level of `w x h` nodes (padded to whole tiles).
@@ -134,12 +143,21 @@ impl<'a> MaxMip<'a> {
                 actual: buf.len(),
             });
         }
+        let mut dims = [(1u32, 1u32, 1u32); MAX_LEVELS];
+        let mut bound = 2u64;
+        for (k, d) in dims.iter_mut().enumerate().take(levels as usize) {
+            let (w, h) = (dim(nx, k as u32), dim(ny, k as u32));
+            *d = (w, h, w.div_ceil(4));
+            bound += 2 * (w as u64 + h as u64) + 2;
+        }
         Ok(MaxMip {
             data: buf,
             nx,
             ny,
             levels,
             offsets,
+            dims,
+            bound,
         })
     }
 
@@ -248,15 +266,25 @@ impl<'a> MaxMip<'a> {
     /// ```
     #[must_use]
     pub fn node(&self, level: u32, x: u32, y: u32) -> f32 {
-        let (w, h) = (dim(self.nx, level), dim(self.ny, level));
+        let Some(&(w, h, tx)) = self.dims.get(level as usize) else {
+            return f32::NEG_INFINITY;
+        };
         if level >= self.levels || x >= w || y >= h {
             return f32::NEG_INFINITY;
         }
         let off = self.offsets.get(level as usize).copied().unwrap_or(0);
         self.data
-            .get(off + tiled(w, x, y))
+            .get(off + tiled_t(tx, x, y))
             .copied()
             .unwrap_or(f32::NEG_INFINITY)
+    }
+
+    /// Nodes across and down on `level` (`(1, 1)` past the top).
+    #[inline]
+    fn dims_of(&self, level: u32) -> (i64, i64) {
+        self.dims
+            .get(level as usize)
+            .map_or((1, 1), |d| (d.0 as i64, d.1 as i64))
     }
 
     /// Upper bound on the traversal steps of one ray: twice the nodes a line can cross on every
@@ -268,11 +296,7 @@ impl<'a> MaxMip<'a> {
     /// ```
     #[must_use]
     pub fn step_bound(&self) -> u64 {
-        let mut s = 0u64;
-        for k in 0..self.levels {
-            s += 2 * (dim(self.nx, k) as u64 + dim(self.ny, k) as u64) + 2;
-        }
-        s + 2
+        self.bound
     }
 }
 
@@ -353,7 +377,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                 let inv = 1.0 / (1i64 << lvl) as f64;
                 let px = lr.o.x + ta * lr.d.x;
                 let py = lr.o.y + ta * lr.d.y;
-                let (w, h) = (dim(mip.nx, lvl) as i64, dim(mip.ny, lvl) as i64);
+                let (w, h) = mip.dims_of(lvl);
                 ix = ((px * inv) as i64).max(2 * ix).min(2 * ix + 1).min(w - 1);
                 iy = ((py * inv) as i64).max(2 * iy).min(2 * iy + 1).min(h - 1);
                 continue;
@@ -373,7 +397,7 @@ impl<T: Terrain> RayTracer<'_, T> {
             if by <= bx {
                 iy += if sy { 1 } else { -1 };
             }
-            let (w, h) = (dim(mip.nx, lvl) as i64, dim(mip.ny, lvl) as i64);
+            let (w, h) = mip.dims_of(lvl);
             if ix < 0 || iy < 0 || ix >= w || iy >= h {
                 return Ok(out);
             }
