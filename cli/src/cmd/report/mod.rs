@@ -2,6 +2,7 @@
 //! one DEM and writes `index.html` (opens without a server), `report.md`, `report.json` and PNG
 //! figures into the output folder. Every number is measured in the run that writes it.
 
+mod diagrams;
 mod mesh;
 mod model;
 mod plot;
@@ -153,6 +154,7 @@ pub fn run(a: &ReportArgs) -> CliResult {
         ("mesh", mesh::mesh),
         ("rays", rays::rays),
         ("rbf", sections::rbf),
+        ("diagrams", diagrams::diagrams),
     ];
     let bar = ProgressBar::new(plan.len() as u64);
     bar.set_style(
