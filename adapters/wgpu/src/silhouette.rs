@@ -13,9 +13,10 @@
 //! The method is an approximation (silhouettes are sampled per screen column and interpolated
 //! linearly between rows); it needs the whole terrain in front of the camera
 //! ([`Error::Unsupported`] otherwise). The depth written is where the pixel's ray crosses the
-//! interpolated row's vertical plane. Tests compare it with a CPU implementation of the same
-//! model (the nearest row whose silhouette reaches the pixel, found by a linear scan) and report
-//! its agreement with the exact CPU trace.
+//! interpolated row's vertical plane. Tests compare the silhouette map with
+//! [`relief_core::silhouette::silhouette_map`] (same texels for views along the grid rows), the
+//! depth with a CPU implementation of the same model (the nearest row whose silhouette reaches
+//! the pixel, found by a linear scan), and report its agreement with the exact CPU trace.
 
 use crate::raycast::RayOutputs;
 use crate::util::{self, bind_buffers, compute_pipeline, groups, storage_entry, uniform_entry};

@@ -1052,3 +1052,70 @@ fn rbf_cascade_discretization_matches_the_cpu() {
     }
     assert!(visible_total > 1000, "{visible_total}");
 }
+
+#[test]
+fn silhouette_map_matches_the_core_cpu_silhouette_map() {
+    use relief_core::silhouette::{silhouette_map, silhouette_map_len, SilhouetteTexel};
+    use relief_wgpu::silhouette::SilhouettePass;
+    let Some(g) = gpu() else { return };
+    let dem = puget();
+    let real = dem.heightfield().unwrap();
+    let (w, h) = (257, 193);
+    let s = synthetic(w, h);
+    let synth = Heightfield::with_scale(&s, w, h, Scale::default().with_spacing(2.0, 2.0)).unwrap();
+    // Cameras looking along +y, so that the GPU's rows (nearest first) are the grid rows in
+    // storage order, as the core numbers them.
+    let cases = [
+        (
+            "synthetic",
+            synth,
+            Vec3::new(256.0, -150.0, 250.0),
+            Vec3::new(256.0, 200.0, 0.0),
+        ),
+        (
+            "puget",
+            real,
+            Vec3::new(82_000.0, -20_000.0, 9000.0),
+            Vec3::new(82_000.0, 60_000.0, 0.0),
+        ),
+    ];
+    for (name, hf, eye, target) in cases {
+        let cam = Camera::new(eye, target, 50.0, 160, 120).unwrap();
+        let t = GpuTerrain::new(&g.device, &g.queue, &hf, false).unwrap();
+        let pass = SilhouettePass::new(&g.device, &t, cam.width, cam.height).unwrap();
+        submit(g, |e| pass.encode(&g.queue, e, &t, &cam).unwrap());
+        let n = (cam.width * hf.height()) as u64;
+        let bytes =
+            relief_wgpu::read_buffer(&g.device, &g.queue, pass.silhouette_map(), n * 8).unwrap();
+        let gpu_map: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        let mut cpu =
+            vec![SilhouetteTexel::EMPTY; silhouette_map_len(cam.width, hf.height()).unwrap()];
+        silhouette_map(&hf, &cam, 1e-3, &mut cpu).unwrap();
+        let s = cam.tan_half_fov();
+        let (mut same, mut filled) = (0usize, 0usize);
+        for (k, c) in cpu.iter().enumerate() {
+            let (gy, gu) = (gpu_map[2 * k], gpu_map[2 * k + 1]);
+            let g_empty = gy <= -1e29;
+            // GPU y is in tangent units; the core's in pixels up from the bottom edge.
+            let gy_px = (gy / s + 1.0) * 0.5 * cam.height as f32;
+            let ok = if c.is_empty() || g_empty {
+                c.is_empty() == g_empty
+            } else {
+                filled += 1;
+                (gy_px - c.y).abs() <= 1e-2 && (gu - c.u).abs() <= 1e-2
+            };
+            if ok {
+                same += 1;
+            }
+        }
+        let frac = same as f64 / cpu.len() as f64;
+        eprintln!(
+            "silhouette map {name}: {filled} covered texels, agreement with the core {frac:.6}"
+        );
+        assert!(filled > cpu.len() / 2, "{name}: {filled}");
+        assert!(frac >= 0.999, "{name}: {frac}");
+    }
+}
