@@ -4,14 +4,15 @@
 // the cell containing the point, its precomputed influence set, weights
 // `exp(-q / (2 sigma^2)) - remainder` truncated at q = (3.5 sigma)^2, the weighted mean of cell
 // values relative to the containing cell's value, clamped to the values that contributed.
-// One invocation per texel, 8 x 8 workgroups; invisible texels get 0.
+// One invocation per texel, 8 x 8 workgroups; invisible texels get a given value (0 as on the
+// CPU, or far below the terrain for the cascade ray cast, so rays fall through them).
 
 struct RbfParams {
     // Grid width, height; cascade resolution; unused.
     dims: vec4<u32>,
     // Cascade origin (texel units, i32) and unused.
     origin: vec4<i32>,
-    // Texel spacing (grid units), sigma, truncation remainder, unused.
+    // Texel spacing (grid units), sigma, truncation remainder, value of invisible texels.
     misc: vec4<f32>,
 }
 
@@ -45,7 +46,7 @@ fn discretize(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let k = id.y * res + id.x;
     if mask[k] == 0u {
-        values[k] = 0.0;
+        values[k] = p.misc.w;
         return;
     }
     let w = p.dims.x;

@@ -17,6 +17,7 @@
 //! | mesh drawing with reversed-Z, strips, geomorphing, depth output (render) | [`mesh`] | 003 (sec. 3.7), 004 (sec. 4.5, 4.6.3, 5.1) |
 //! | silhouette partitioning: map, packed tree, fixed-cost trace (compute) | [`silhouette`] | 000 |
 //! | RBF cascade discretization (compute) | [`rbf`] | 002 (sec. 4) |
+//! | cascade ray cast: a max-mip per cascade, overlap hits blended (compute) | [`cascade`] | 002 (sec. 5) |
 //! | effects on demand: a [`Scene`] and the passes its frame needs | [`scene`] | 003 (sec. 4, table 1) |
 //!
 //! Conventions are those of `relief-core` (CONVENTIONS.md): camera rays from
@@ -42,6 +43,7 @@
 #![deny(rustdoc::broken_intra_doc_links)]
 #![forbid(unsafe_code)]
 
+pub mod cascade;
 pub mod mesh;
 pub mod normals;
 pub mod raycast;

@@ -120,8 +120,8 @@ impl RbfPass {
 
     /// Records the discretization of `cascade` (visible texels from `mask`, `resolution^2`
     /// bytes as [`Cascade::mask`] writes them) and returns the values buffer
-    /// (`resolution^2` `f32`, row-major, 0 where invisible). [`Error::Unsupported`] for a short
-    /// mask.
+    /// (`resolution^2` `f32`, row-major, `invisible` where the mask is 0; the CPU writes 0).
+    /// [`Error::Unsupported`] for a short mask.
     pub fn encode(
         &self,
         device: &wgpu::Device,
@@ -129,6 +129,7 @@ impl RbfPass {
         encoder: &mut wgpu::CommandEncoder,
         cascade: &Cascade,
         mask: &[u8],
+        invisible: f32,
     ) -> Result<wgpu::Buffer, Error> {
         let res = cascade.resolution;
         let n = res as usize * res as usize;
@@ -154,6 +155,7 @@ impl RbfPass {
         p[8] = cascade.spacing.to_bits();
         p[9] = self.sigma.to_bits();
         p[10] = remainder.to_bits();
+        p[11] = invisible.to_bits();
         queue.write_buffer(&params, 0, bytemuck::cast_slice(&p));
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("relief rbf"),
@@ -188,7 +190,7 @@ impl RbfPass {
         mask: &[u8],
     ) -> Result<Vec<f32>, Error> {
         let mut enc = device.create_command_encoder(&Default::default());
-        let values = self.encode(device, queue, &mut enc, cascade, mask)?;
+        let values = self.encode(device, queue, &mut enc, cascade, mask, 0.0)?;
         queue.submit([enc.finish()]);
         let n = cascade.resolution as u64 * cascade.resolution as u64 * 4;
         Ok(util::f32s(&util::read_buffer(device, queue, &values, n)?))

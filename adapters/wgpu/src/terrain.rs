@@ -143,6 +143,49 @@ impl GpuTerrain {
                 bytemuck::cast_slice(&local),
             )
         });
+        let t = Self::build(device, base, current, w, h, terrain.scale(), lo, hi)?;
+        if let Some(d) = &t.deform {
+            _queue.write_buffer(&d.params, 0, bytemuck::cast_slice(&[w, h, 0u32, 0u32]));
+        }
+        Ok(t)
+    }
+
+    /// A terrain whose local heights are already on the GPU: `heights` holds `width * height`
+    /// `f32` (row-major, `STORAGE` usage), for example a cascade discretized by
+    /// [`crate::rbf::RbfPass`]; `range` must contain every height (it clips rays). Static (no
+    /// deformations). [`Error::Core`] for a grid smaller than 2 x 2.
+    pub fn from_buffer(
+        device: &wgpu::Device,
+        heights: wgpu::Buffer,
+        width: u32,
+        height: u32,
+        scale: Scale,
+        range: (f32, f32),
+    ) -> Result<GpuTerrain, Error> {
+        if width < 2 || height < 2 {
+            return Err(relief_core::Error::TooSmall { width, height }.into());
+        }
+        if heights.size() < u64::from(width) * u64::from(height) * 4 {
+            return Err(Error::Unsupported(
+                "height buffer smaller than width * height f32",
+            ));
+        }
+        Self::build(
+            device, heights, None, width, height, scale, range.0, range.1,
+        )
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        device: &wgpu::Device,
+        base: wgpu::Buffer,
+        current: Option<wgpu::Buffer>,
+        w: u32,
+        h: u32,
+        scale: Scale,
+        lo: f32,
+        hi: f32,
+    ) -> Result<GpuTerrain, Error> {
         // Pyramid layout as MaxMip's.
         let (nx, ny) = (w - 1, h - 1);
         let mut offsets = Vec::new();
@@ -233,10 +276,10 @@ impl GpuTerrain {
                 craters,
             }
         });
-        let t = GpuTerrain {
+        Ok(GpuTerrain {
             width: w,
             height: h,
-            scale: terrain.scale(),
+            scale,
             zmin: lo,
             zmax: hi,
             crater_depth: 0.0,
@@ -249,11 +292,7 @@ impl GpuTerrain {
             mip_pipeline,
             mip_groups,
             deform,
-        };
-        if let Some(d) = &t.deform {
-            _queue.write_buffer(&d.params, 0, bytemuck::cast_slice(&[w, h, 0u32, 0u32]));
-        }
-        Ok(t)
+        })
     }
 
     /// Sample grid size `(width, height)`.
