@@ -231,6 +231,7 @@ pub(crate) struct ViewData {
     eye: [f64; 3],
     kappa: f64,
     tau: f64,
+    kappa_over_tau: f64,
     planes: [[f64; 4]; 6],
     pub(crate) mask: u8,
     lazy_from: u32,
@@ -360,7 +361,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
     /// The indexed triangle list: fills `vertices` (world positions) and `triangles` (indices
     /// into `vertices`, counter-clockwise seen from +z) and returns the counts.
-    /// [`Error::BufferTooSmall`] (nothing written) if either buffer is too small.
+    /// [`Error::BufferTooSmall`] if either buffer is too small (view-independent: nothing
+    /// written; view-dependent: the buffers' contents are unspecified).
     ///
     /// ```
     /// # use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner};
@@ -380,6 +382,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         vertices: &mut [[f32; 3]],
         triangles: &mut [[u32; 3]],
     ) -> Result<FrameCounts, Error> {
+        if self.view.is_some() {
+            return self.triangles_view(scratch, vertices, triangles);
+        }
         let c = self.select(scratch)?;
         need(c.vertices, vertices.len())?;
         need(c.triangles, triangles.len())?;
@@ -408,6 +413,47 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             self.walk_all(&mut sink, false);
         }
         Ok(c)
+    }
+
+    /// View-dependent list in one traversal: triangles are written with grid indices while the
+    /// bitmap is marked, then renumbered by rank.
+    fn triangles_view(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [[f32; 3]],
+        triangles: &mut [[u32; 3]],
+    ) -> Result<FrameCounts, Error> {
+        let n = self.g.len();
+        need(2 * n.div_ceil(64), scratch.len())?;
+        let (bits, prefix) = split_scratch(scratch, n);
+        bits.fill(0);
+        let mut sink = GridSink {
+            bits,
+            w: self.g.width() as i64,
+            out: &mut *triangles,
+            n: 0,
+        };
+        self.walk_all(&mut sink, false);
+        let nt = sink.n;
+        let bits: &[u64] = sink.bits;
+        let mut acc = 0u64;
+        for (p, &b) in prefix.iter_mut().zip(bits.iter()) {
+            *p = acc;
+            acc += b.count_ones() as u64;
+        }
+        let nv = acc as usize;
+        need(nt, triangles.len())?;
+        need(nv, vertices.len())?;
+        for t in triangles.iter_mut().take(nt) {
+            for k in t.iter_mut() {
+                *k = rank(bits, prefix, *k as usize);
+            }
+        }
+        self.write_vertices(bits, vertices);
+        Ok(FrameCounts {
+            vertices: nv,
+            triangles: nt,
+        })
     }
 
     /// Geomorph data for the vertices of the last selection, in vertex order: for each kept
@@ -698,8 +744,23 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 None => return Decision::Cull,
             }
         }
-        let d = self.distance(&v, [m.0, m.1], z, i, level);
-        if e as f64 * v.kappa > v.tau * d {
+        let ef = e as f64;
+        let active = if self.h.spheres() {
+            // SOAR's form without a square root: e kappa / tau + r > |eye - p|.
+            if v.tau > 0.0 {
+                let s = self.h.scale();
+                let dx = v.eye[0] - m.0 as f64 * s.dx as f64;
+                let dy = v.eye[1] - m.1 as f64 * s.dy as f64;
+                let dz = v.eye[2] - z;
+                let reach = ef * v.kappa_over_tau + self.h.radius_at(i, level) as f64;
+                ef > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz
+            } else {
+                ef > 0.0
+            }
+        } else {
+            ef * v.kappa > v.tau * self.distance(&v, [m.0, m.1], z, i, level)
+        };
+        if active {
             Decision::Split(planes)
         } else {
             Decision::Keep
@@ -800,6 +861,7 @@ fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Err
         eye: [e.x as f64, e.y as f64, e.z as f64 - off],
         kappa: v.camera.kappa() as f64,
         tau: v.tau as f64,
+        kappa_over_tau: v.camera.kappa() as f64 / v.tau as f64,
         planes,
         mask,
         lazy_from: g.levels().saturating_sub(v.lazy_levels),
@@ -868,6 +930,32 @@ impl Sink for MarkSink<'_> {
             if let Some(word) = self.bits.get_mut(i >> 6) {
                 *word |= 1u64 << (i & 63);
             }
+        }
+        self.n += 1;
+    }
+}
+
+/// Writes triangles as grid indices (while there is room) and marks their vertices.
+struct GridSink<'a, 'o> {
+    bits: &'a mut [u64],
+    w: i64,
+    out: &'o mut [[u32; 3]],
+    n: usize,
+}
+
+impl Sink for GridSink<'_, '_> {
+    #[inline(always)]
+    fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64)) {
+        let mut t = [0u32; 3];
+        for (o, p) in t.iter_mut().zip([a, b, c]) {
+            let i = (p.1 * self.w + p.0) as usize;
+            if let Some(word) = self.bits.get_mut(i >> 6) {
+                *word |= 1u64 << (i & 63);
+            }
+            *o = i as u32;
+        }
+        if let Some(o) = self.out.get_mut(self.n) {
+            *o = t;
         }
         self.n += 1;
     }
