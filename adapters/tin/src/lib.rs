@@ -30,7 +30,7 @@
 //! The error a candidate carries is the mesh vertical error of CONVENTIONS.md at that sample, in
 //! world z units (`z_scale` applied; `z_offset` cancels), so when the build stops on error the
 //! worst remaining candidate *is* the mesh's measured error, bit for bit equal to what
-//! [`mesh_error`](crate::mesh_error) reports.
+//! [`mesh_error`] reports.
 //!
 //! ## Comparing methods
 //! [`compare_tin`] and [`compare_method`] build meshes for a list of error targets and measure
