@@ -45,6 +45,11 @@ override SHADOWS: bool = false;
 override DETAIL: bool = false;
 override FOG: bool = false;
 override WATER: bool = false;
+// With WATER: the water surface is a heightfield (`water_surface`, e.g. the RBF approximation of
+// a flood simulation's water levels, seed 002) instead of the plane at `water.w`.
+override WATER_SURFACE: bool = false;
+const WATER_STEPS: u32 = 128u;
+const WATER_REFINE: u32 = 8u;
 
 const BIG: f32 = 1e30;
 const INF_BITS: u32 = 0x7f800000u;
@@ -57,6 +62,8 @@ const INF_BITS: u32 = 0x7f800000u;
 @group(0) @binding(5) var<storage, read_write> out_depth: array<u32>;
 @group(0) @binding(6) var<storage, read_write> out_normal: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read_write> out_color: array<u32>;
+// Water surface heights (local), one per sample, used with WATER_SURFACE.
+@group(0) @binding(8) var<storage, read> water_surface: array<f32>;
 
 struct LRay {
     o: vec3<f32>,
@@ -398,6 +405,76 @@ fn albedo(z: f32) -> vec3<f32> {
     return mix(mid, high, (s - 0.6) / 0.4);
 }
 
+// Bilinear water surface height at grid position (gx, gy), clamped to the grid.
+fn water_at(gx: f32, gy: f32) -> f32 {
+    let ext = cells();
+    let x = clamp(gx, 0.0, ext.x);
+    let y = clamp(gy, 0.0, ext.y);
+    let x0 = min(u32(floor(x)), p.image.z - 2u);
+    let y0 = min(u32(floor(y)), p.image.w - 2u);
+    let fx = x - f32(x0);
+    let fy = y - f32(y0);
+    let w = p.image.z;
+    let a = mix(water_surface[y0 * w + x0], water_surface[y0 * w + x0 + 1u], fx);
+    let b = mix(water_surface[(y0 + 1u) * w + x0], water_surface[(y0 + 1u) * w + x0 + 1u], fx);
+    return mix(a, b, fy);
+}
+
+// First point at or below the water surface along the ray inside the domain before `t_end`:
+// WATER_STEPS linear samples, then WATER_REFINE bisections (the march of seed 003); BIG if none.
+fn trace_water(o: vec3<f32>, d: vec3<f32>, t_end: f32) -> f32 {
+    var t0 = 0.0;
+    var t1 = t_end;
+    let ext = cells();
+    for (var i = 0; i < 2; i++) {
+        if d[i] == 0.0 {
+            if !(o[i] >= 0.0 && o[i] <= ext[i]) {
+                return BIG;
+            }
+        } else {
+            let a = (0.0 - o[i]) / d[i];
+            let b = (ext[i] - o[i]) / d[i];
+            t0 = max(t0, min(a, b));
+            t1 = min(t1, max(a, b));
+        }
+    }
+    if !(t0 <= t1) || t1 >= BIG {
+        return BIG;
+    }
+    let step = (t1 - t0) / f32(WATER_STEPS);
+    var prev = t0;
+    var lo = 0.0;
+    var hi = 0.0;
+    var found = false;
+    for (var i = 0u; i <= WATER_STEPS; i++) {
+        var t = t0 + step * f32(i);
+        if i == WATER_STEPS {
+            t = t1;
+        }
+        let q = o + t * d;
+        if q.z <= water_at(q.x, q.y) {
+            lo = prev;
+            hi = t;
+            found = true;
+            break;
+        }
+        prev = t;
+    }
+    if !found {
+        return BIG;
+    }
+    for (var k = 0u; k < WATER_REFINE && hi > lo; k++) {
+        let mid = 0.5 * (lo + hi);
+        let q = o + mid * d;
+        if q.z <= water_at(q.x, q.y) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    return hi;
+}
+
 const SKY: vec3<f32> = vec3<f32>(0.55, 0.7, 0.9);
 
 @compute @workgroup_size(8, 8)
@@ -449,7 +526,15 @@ fn raycast(@builtin(global_invocation_id) id: vec3<u32>) {
             color *= mix(0.55, 1.0, lit);
         }
     }
-    if WATER && d.z < 0.0 && o.z > p.water.w {
+    if WATER && WATER_SURFACE {
+        let tw = trace_water(o, d, min(depth, BIG * 0.5));
+        if tw < depth {
+            let below_water = select(0.0, min((depth - tw) * 0.002, 1.0), depth < BIG);
+            color = mix(mix(color, p.water.xyz, 0.5), p.water.xyz * 0.6, below_water);
+            depth = tw;
+            normal = vec4<f32>(0.0, 0.0, 1.0, 1.0);
+        }
+    } else if WATER && d.z < 0.0 && o.z > p.water.w {
         let tw = (p.water.w - o.z) / d.z;
         let wp = o + tw * d;
         let ext = cells();

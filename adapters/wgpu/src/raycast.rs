@@ -70,8 +70,10 @@ pub struct RayEffects {
     pub detail: bool,
     /// Distance fog.
     pub fog: bool,
-    /// A water plane.
+    /// A water plane, or with `water_surface` a water heightfield.
     pub water: bool,
+    /// The water is a heightfield (one height per sample) instead of a plane.
+    pub water_surface: bool,
 }
 
 impl RayEffects {
@@ -98,6 +100,7 @@ impl RayEffects {
             ("DETAIL", b(self.detail)),
             ("FOG", b(self.fog)),
             ("WATER", b(self.water)),
+            ("WATER_SURFACE", b(self.water && self.water_surface)),
         ]
     }
 }
@@ -299,6 +302,31 @@ impl RayCastPass {
         width: u32,
         height: u32,
     ) -> Result<RayCastPass, Error> {
+        Self::new_with_water(
+            device, terrain, normals, detail, None, method, effects, width, height,
+        )
+    }
+
+    /// [`RayCastPass::new`] with a water surface: `water` holds one local height per terrain
+    /// sample (row-major `f32`; for example the RBF approximation of a flood simulation's water
+    /// levels, seed 002), needed when `effects.water_surface` is set.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new_with_water(
+        device: &wgpu::Device,
+        terrain: &GpuTerrain,
+        normals: Option<&wgpu::Buffer>,
+        detail: Option<(&wgpu::Buffer, u32, u32)>,
+        water: Option<&wgpu::Buffer>,
+        method: Method,
+        effects: RayEffects,
+        width: u32,
+        height: u32,
+    ) -> Result<RayCastPass, Error> {
+        if effects.water && effects.water_surface && water.is_none() {
+            return Err(Error::Unsupported(
+                "the water surface effect needs water heights",
+            ));
+        }
         if width == 0 || height == 0 {
             return Err(Error::Unsupported("empty image"));
         }
@@ -335,6 +363,7 @@ impl RayCastPass {
                 storage_entry(5, false, cs),
                 storage_entry(6, false, cs),
                 storage_entry(7, false, cs),
+                storage_entry(8, true, cs),
             ],
         });
         let constants = effects.constants(method);
@@ -358,6 +387,7 @@ impl RayCastPass {
                 &out.depth,
                 &out.normal,
                 &out.color,
+                water.unwrap_or(&dummy),
             ]),
         });
         // MaxMip::step_bound.

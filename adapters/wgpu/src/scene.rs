@@ -15,7 +15,7 @@
 //! | [`Effect::Detail`] | none (`normal_map` composed with the detail when lit) | `DETAIL` |
 //! | [`Effect::Deformations`] | `deform` per frame; `maxmip_build`, `normal_map` move to every frame | none |
 //! | [`Effect::Fog`] | none | `FOG` |
-//! | [`Effect::Water`] | none | `WATER` |
+//! | [`Effect::Water`] | none | `WATER` (plane), `WATER_SURFACE` (a heightfield, e.g. an RBF approximation) |
 //! | [`Effect::DepthOutput`] | `depth_resolve` per frame | none |
 
 use crate::mesh::{DepthTarget, ResolvePass};
@@ -45,7 +45,7 @@ pub enum Effect {
     Deformations,
     /// Distance fog.
     Fog,
-    /// A water plane.
+    /// A water plane, or a water heightfield ([`Scene::with_water_surface`]).
     Water,
     /// A reversed-Z depth buffer (and colour target) for compositing with meshes.
     DepthOutput,
@@ -148,6 +148,7 @@ pub struct Scene {
     shading: Shading,
     craters: Vec<Crater>,
     detail: Option<(Vec<f32>, u32, u32)>,
+    water_surface: Option<Vec<f32>>,
 }
 
 impl Default for Scene {
@@ -166,6 +167,7 @@ impl Scene {
             shading: Shading::default(),
             craters: Vec::new(),
             detail: None,
+            water_surface: None,
         }
     }
 
@@ -220,6 +222,16 @@ impl Scene {
         self
     }
 
+    /// Sets the water surface of [`Effect::Water`]: one world height per terrain sample
+    /// (row-major), for example the RBF approximation of a flood simulation's water levels
+    /// (seed 002; `relief rbf --out` writes one). Default: a plane at
+    /// [`Shading::water_level`].
+    #[must_use]
+    pub fn with_water_surface(mut self, heights: Vec<f32>) -> Scene {
+        self.water_surface = Some(heights);
+        self
+    }
+
     /// The effects named, sorted.
     #[must_use]
     pub fn effects(&self) -> &[Effect] {
@@ -263,6 +275,7 @@ impl Scene {
             detail: self.has(Effect::Detail),
             fog: self.has(Effect::Fog),
             water: self.has(Effect::Water),
+            water_surface: self.water_surface.is_some(),
         }
     }
 
@@ -389,6 +402,7 @@ pub struct Renderer {
     terrain: GpuTerrain,
     normals: Option<NormalPass>,
     detail: Option<(wgpu::Buffer, u32, u32)>,
+    water: Option<wgpu::Buffer>,
     rays: Option<RayCastPass>,
     resolve: Option<ResolvePass>,
     target: Option<DepthTarget>,
@@ -425,6 +439,24 @@ impl Renderer {
         } else {
             None
         };
+        let water = match (&scene.water_surface, scene.has(Effect::Water)) {
+            (Some(ws), true) => {
+                let (w, h) = gt.size();
+                if ws.len() != w as usize * h as usize {
+                    return Err(Error::Unsupported(
+                        "water surface size differs from the terrain's",
+                    ));
+                }
+                let z0 = gt.scale().z_offset;
+                let local: Vec<f32> = ws.iter().map(|z| z - z0).collect();
+                Some(util::storage_init(
+                    device,
+                    "relief water surface",
+                    bytemuck::cast_slice(&local),
+                ))
+            }
+            _ => None,
+        };
         let detail = detail_map.map(|(s, w, h)| {
             (
                 util::storage_init(device, "relief detail", bytemuck::cast_slice(&s)),
@@ -437,6 +469,7 @@ impl Renderer {
             terrain: gt,
             normals,
             detail,
+            water,
             rays: None,
             resolve: None,
             target: None,
@@ -483,11 +516,12 @@ impl Renderer {
             .as_ref()
             .is_none_or(|r| (r.outputs().width, r.outputs().height) != size);
         if stale {
-            let rays = RayCastPass::new(
+            let rays = RayCastPass::new_with_water(
                 device,
                 &self.terrain,
                 self.normals.as_ref().map(|n| n.buffer()),
                 self.detail.as_ref().map(|(b, w, h)| (b, *w, *h)),
+                self.water.as_ref(),
                 self.scene.method,
                 self.scene.ray_effects(),
                 size.0,

@@ -1284,3 +1284,149 @@ fn cascade_ray_cast_matches_the_cpu_construction() {
     assert!(frac >= 0.999, "{frac} ({bad})");
     assert!(close >= 0.9, "{close}");
 }
+
+#[test]
+fn water_surface_from_the_rbf_approximation_matches_the_cpu() {
+    use relief_core::rbf::{
+        adaptive_grid_bound, build_adaptive_grid, AdaptiveGrid, Cell, GridOptions, InfluenceSets,
+        Rbf, RbfOptions,
+    };
+    let Some(g) = gpu() else { return };
+    let (w, h) = (129, 129);
+    let s = synthetic(w, h);
+    let scale = Scale::default().with_spacing(3.0, 3.0);
+    let hf = Heightfield::with_scale(&s, w, h, scale).unwrap();
+    // A flood's water levels (gentle waves), approximated by the adaptive-grid RBF (seed 002),
+    // evaluated at every sample: the water surface.
+    let levels: Vec<f32> = (0..w * h)
+        .map(|i| 62.0 + 6.0 * ((i % w) as f32 * 0.05).sin())
+        .collect();
+    let lhf = Heightfield::with_scale(&levels, w, h, scale).unwrap();
+    let mut cells = vec![Cell::default(); adaptive_grid_bound(w, h).unwrap()];
+    let n = build_adaptive_grid(
+        &lhf,
+        &GridOptions::default().with_max_error(0.5).with_cells(1, 16),
+        &mut cells,
+    )
+    .unwrap();
+    cells.truncate(n);
+    let mut index = vec![0u32; (w * h) as usize];
+    let grid = AdaptiveGrid::new(w, h, &cells, &mut index).unwrap();
+    let ropts = RbfOptions::default();
+    let mut offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
+    let mut entries = vec![0u32; InfluenceSets::entries_len(&grid, &ropts).unwrap()];
+    let sets = InfluenceSets::build(&grid, &ropts, &mut offsets, &mut entries).unwrap();
+    let rbf = Rbf::new(grid, sets, &ropts).unwrap();
+    let water: Vec<f32> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| {
+            rbf.eval(relief_core::glam::Vec2::new(x as f32, y as f32))
+                .unwrap()
+        })
+        .collect();
+    let cam = Camera::new(
+        Vec3::new(10.0, 15.0, 160.0),
+        Vec3::new(300.0, 280.0, 40.0),
+        60.0,
+        128,
+        96,
+    )
+    .unwrap();
+    let scene = Scene::new()
+        .with_effect(Effect::Water)
+        .with_water_surface(water.clone());
+    let mut r = Renderer::new(&g.device, &g.queue, &hf, scene).unwrap();
+    let frame = r.render(&g.device, &g.queue, &cam).unwrap();
+
+    // CPU: the terrain trace, then the same water march (128 samples, 8 bisections) up to it.
+    let mut buf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
+    let mip = MaxMip::build(&hf, &mut buf).unwrap();
+    let tracer = RayTracer::new(&hf, Surface::Triangles);
+    let water_at = |gx: f64, gy: f64| -> f64 {
+        let (x, y) = (
+            gx.clamp(0.0, f64::from(w - 1)),
+            gy.clamp(0.0, f64::from(h - 1)),
+        );
+        let (x0, y0) = ((x.floor() as u32).min(w - 2), (y.floor() as u32).min(h - 2));
+        let (fx, fy) = (x - f64::from(x0), y - f64::from(y0));
+        let at = |x: u32, y: u32| f64::from(water[(y * w + x) as usize]);
+        let a = at(x0, y0) + (at(x0 + 1, y0) - at(x0, y0)) * fx;
+        let b = at(x0, y0 + 1) + (at(x0 + 1, y0 + 1) - at(x0, y0 + 1)) * fx;
+        a + (b - a) * fy
+    };
+    let mut cd = Vec::new();
+    let (mut water_px, mut terrain_px) = (0, 0);
+    for j in 0..cam.height {
+        for i in 0..cam.width {
+            let (o, d) = cam.ray(i, j);
+            let ray = Ray::new(o, d).unwrap();
+            let tt = tracer
+                .trace_maxmip(&ray, &mip)
+                .unwrap()
+                .hit
+                .map_or(f64::INFINITY, |h| h.t);
+            // Local coordinates: grid units horizontally.
+            let (o, d) = (o.as_dvec3(), d.as_dvec3());
+            let (ol, dl) = ([o.x / 3.0, o.y / 3.0, o.z], [d.x / 3.0, d.y / 3.0, d.z]);
+            let (mut t0, mut t1) = (0.0f64, tt);
+            let mut inside = true;
+            for k in 0..2 {
+                let ext = f64::from(if k == 0 { w - 1 } else { h - 1 });
+                if dl[k] == 0.0 {
+                    inside &= ol[k] >= 0.0 && ol[k] <= ext;
+                } else {
+                    let (a, b) = ((0.0 - ol[k]) / dl[k], (ext - ol[k]) / dl[k]);
+                    t0 = t0.max(a.min(b));
+                    t1 = t1.min(a.max(b));
+                }
+            }
+            let mut tw = f64::INFINITY;
+            if inside && t0 <= t1 && t1.is_finite() {
+                let step = (t1 - t0) / 128.0;
+                let below =
+                    |t: f64| ol[2] + t * dl[2] <= water_at(ol[0] + t * dl[0], ol[1] + t * dl[1]);
+                let mut prev = t0;
+                for s in 0..=128 {
+                    let t = if s == 128 {
+                        t1
+                    } else {
+                        t0 + step * f64::from(s)
+                    };
+                    if below(t) {
+                        let (mut lo, mut hi) = (prev, t);
+                        for _ in 0..8 {
+                            if hi <= lo {
+                                break;
+                            }
+                            let mid = 0.5 * (lo + hi);
+                            if below(mid) {
+                                hi = mid;
+                            } else {
+                                lo = mid;
+                            }
+                        }
+                        tw = hi;
+                        break;
+                    }
+                    prev = t;
+                }
+            }
+            if tw < tt {
+                water_px += 1;
+                cd.push(tw as f32);
+            } else {
+                if tt.is_finite() {
+                    terrain_px += 1;
+                }
+                cd.push(tt as f32);
+            }
+        }
+    }
+    let (frac, bad) = agreement(&frame.depth, &cd, |i| 1e-3 * f64::from(cd[i]));
+    eprintln!("water surface: {water_px} water pixels, {terrain_px} terrain pixels; GPU vs CPU {frac:.6} ({bad})");
+    assert!(
+        water_px > 500 && terrain_px > 500,
+        "{water_px} {terrain_px}"
+    );
+    assert!(frac >= 0.999, "{frac} ({bad})");
+}
