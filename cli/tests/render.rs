@@ -201,5 +201,56 @@ fn no_adapter_unknown_effects_and_silhouette_are_one_line_errors() {
     let mut cpu = args.clone();
     cpu.extend_from_slice(&["--backend", "cpu", "--effects", "water"]);
     assert_one_line_error(&relief(&cpu, &[]), "needs --backend gpu");
+    let mut ws = args.clone();
+    ws.extend_from_slice(&["--water-surface", "/nonexistent.f32"]);
+    assert_one_line_error(&relief(&ws, &[]), "needs --effects water");
     assert!(!dir.path().join("x.png").exists());
+}
+
+#[test]
+fn water_surface_file_is_rendered_and_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("water.f32");
+    // A flat flood at 30 m over the whole bundled map (1025 x 1025 samples).
+    let bytes: Vec<u8> = (0..1025 * 1025)
+        .flat_map(|_| 30.0f32.to_le_bytes())
+        .collect();
+    std::fs::write(&path, &bytes).unwrap();
+    let p = path.display().to_string();
+    let Some((v, d)) = render(
+        dir.path(),
+        "water",
+        &["--effects", "water", "--water-surface", &p],
+    ) else {
+        return;
+    };
+    assert!(v["hits"].as_u64().unwrap() > 160 * 120 / 4);
+    let Some((_, dry)) = render(dir.path(), "dry", &[]) else {
+        return;
+    };
+    // The water hides low ground: some pixels are nearer than the bare terrain.
+    assert!(d.iter().zip(&dry).any(|(w, t)| w < t));
+    let short = dir.path().join("short.f32");
+    std::fs::write(&short, &bytes[..400]).unwrap();
+    let dem = bundled();
+    let s = short.display().to_string();
+    let png = dir.path().join("y.png").display().to_string();
+    let mut args = vec![
+        "render",
+        "--dem",
+        &dem,
+        "--out",
+        &png,
+        "--effects",
+        "water",
+        "--water-surface",
+        &s,
+    ];
+    args.extend_from_slice(&CAM);
+    let out = relief(&args, &[]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    if err.contains("no GPU adapter") {
+        return;
+    }
+    assert_one_line_error(&out, "expected");
 }

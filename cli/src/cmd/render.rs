@@ -66,6 +66,11 @@ pub struct RenderArgs {
     /// Comma-separated effects: lighting, shadows, detail, deformations, fog, water, depth.
     #[arg(long, value_name = "LIST", default_value = "")]
     effects: String,
+    /// Water surface for the `water` effect: little-endian f32, one world height per DEM
+    /// sample, row-major (for example the RBF approximation `relief rbf --out` writes); default
+    /// a plane.
+    #[arg(long, value_name = "PATH")]
+    water_surface: Option<PathBuf>,
     /// Screen-space error in pixels for `--method mesh`.
     #[arg(long, value_name = "PX", default_value_t = 1.0)]
     pixel_error: f32,
@@ -314,6 +319,30 @@ fn render_gpu(
             },
         ]);
     }
+    if let Some(path) = &a.water_surface {
+        let bytes =
+            std::fs::read(path).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+        let n = hf.width() as usize * hf.height() as usize;
+        if bytes.len() != n * 4 {
+            return Err(CliError(format!(
+                "{}: {} bytes, expected {} (one f32 per DEM sample)",
+                path.display(),
+                bytes.len(),
+                n * 4
+            )));
+        }
+        let heights: Vec<f32> = bytes
+            .chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        if heights.iter().any(|z| !z.is_finite()) {
+            return Err(CliError(format!(
+                "{}: non-finite water height",
+                path.display()
+            )));
+        }
+        scene = scene.with_water_surface(heights);
+    }
     if effects.contains(&Effect::Water) {
         let s = *scene.shading();
         let level = hf.scale().z_offset + local_min(hf) + 0.15 * z_span(hf);
@@ -524,6 +553,12 @@ pub fn run(a: &RenderArgs) -> CliResult {
     }
     if !(a.pixel_error.is_finite() && a.pixel_error > 0.0) {
         return Err(CliError("--pixel-error must be positive".into()));
+    }
+    if a.water_surface.is_some() && !effects.contains(&Effect::Water) {
+        return Err(CliError("--water-surface needs --effects water".into()));
+    }
+    if a.water_surface.is_some() && a.backend == Backend::Cpu {
+        return Err(CliError("--water-surface needs --backend gpu".into()));
     }
     let (w, h) = a.size;
     let camera = Camera::new(a.eye, a.target, a.fov, w, h)?;
