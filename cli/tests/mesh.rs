@@ -1,0 +1,190 @@
+//! `relief mesh` (SOAR refinement): OBJ and JSON agree, the measured error is within E, the
+//! view-dependent form runs, and bad input is one line on stderr with exit code 2.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn relief(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_relief"))
+        .args(args)
+        .output()
+        .expect("run relief")
+}
+
+fn write_dem(dir: &Path, w: u32, h: u32) -> String {
+    let p = dir.join(format!("dem_{w}x{h}.f32"));
+    let bytes: Vec<u8> = (0..w * h)
+        .flat_map(|i| {
+            let (x, y) = ((i % w) as f32, (i / w) as f32);
+            let z = 40.0 * (-((x - 12.0).powi(2) + (y - 9.0).powi(2)) / 60.0).exp()
+                + 3.0 * (x * 0.7).sin() * (y * 0.4).cos();
+            z.to_le_bytes()
+        })
+        .collect();
+    std::fs::write(&p, bytes).unwrap();
+    p.to_str().unwrap().to_string()
+}
+
+fn json(o: &Output) -> serde_json::Value {
+    assert!(
+        o.status.success(),
+        "stderr: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    serde_json::from_slice(&o.stdout).expect("one JSON object")
+}
+
+fn obj_counts(p: &Path) -> (usize, usize) {
+    let s = std::fs::read_to_string(p).unwrap();
+    (
+        s.lines().filter(|l| l.starts_with("v ")).count(),
+        s.lines().filter(|l| l.starts_with("f ")).count(),
+    )
+}
+
+#[test]
+fn view_independent_mesh_writes_obj_and_stays_within_e() {
+    let dir = tempfile::tempdir().unwrap();
+    for (w, h, square) in [(33u32, 21u32, false), (33, 33, true)] {
+        let dem = write_dem(dir.path(), w, h);
+        let out = dir.path().join("m.obj");
+        let (ws, hs) = (w.to_string(), h.to_string());
+        for layout in ["full", "compact"] {
+            let o = relief(&[
+                "mesh",
+                "--dem",
+                &dem,
+                "--format",
+                "raw-f32",
+                "--width",
+                &ws,
+                "--height",
+                &hs,
+                "--max-error",
+                "0.5",
+                "--layout",
+                layout,
+                "--out",
+                out.to_str().unwrap(),
+                "--json",
+            ]);
+            let v = json(&o);
+            let (nv, nt) = obj_counts(&out);
+            assert_eq!(v["vertices"].as_u64().unwrap() as usize, nv);
+            assert_eq!(v["triangles"].as_u64().unwrap() as usize, nt);
+            assert!(nt > 2 && nt < 2 * (w as usize - 1) * (h as usize - 1));
+            assert!(v["max_error_measured"].as_f64().unwrap() <= 0.5);
+            assert!(v["preprocess_ms"].as_f64().unwrap() >= 0.0);
+            assert!(v["refine_ms"].as_f64().unwrap() >= 0.0);
+            assert_eq!(v["strip_length"].is_u64(), square, "{w}x{h}");
+        }
+    }
+}
+
+#[test]
+fn view_dependent_mesh_runs_with_culling() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = write_dem(dir.path(), 65, 65);
+    let out = dir.path().join("v.obj");
+    let o = relief(&[
+        "mesh",
+        "--dem",
+        &dem,
+        "--format",
+        "raw-f32",
+        "--width",
+        "65",
+        "--height",
+        "65",
+        "--eye",
+        "-10,-10,30",
+        "--target",
+        "40,40,0",
+        "--fov",
+        "50",
+        "--size",
+        "320x240",
+        "--pixel-error",
+        "1",
+        "--out",
+        out.to_str().unwrap(),
+        "--json",
+    ]);
+    let v = json(&o);
+    assert_eq!(v["mode"], "view-dependent");
+    let (nv, nt) = obj_counts(&out);
+    assert_eq!(v["triangles"].as_u64().unwrap() as usize, nt);
+    assert_eq!(v["vertices"].as_u64().unwrap() as usize, nv);
+    assert!(nt > 2);
+}
+
+#[test]
+fn bad_input_is_one_line_and_exit_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = write_dem(dir.path(), 9, 9);
+    let out = dir.path().join("x.obj");
+    let o = out.to_str().unwrap();
+    let base = [
+        "mesh", "--dem", &dem, "--format", "raw-f32", "--width", "9", "--height", "9",
+    ];
+    let cases: Vec<Vec<&str>> = vec![
+        vec!["--max-error", "nan", "--out", o],
+        vec!["--max-error", "-1", "--out", o],
+        vec!["--out", o],
+        vec![
+            "--eye",
+            "1,1,nan",
+            "--target",
+            "5,5,0",
+            "--size",
+            "10x10",
+            "--pixel-error",
+            "1",
+            "--out",
+            o,
+        ],
+        vec![
+            "--eye",
+            "4,4,10",
+            "--target",
+            "4,4,0",
+            "--size",
+            "10x10",
+            "--pixel-error",
+            "1",
+            "--out",
+            o,
+        ],
+        vec![
+            "--eye",
+            "0,0,10",
+            "--target",
+            "5,5,0",
+            "--size",
+            "10x10",
+            "--pixel-error",
+            "nan",
+            "--out",
+            o,
+        ],
+    ];
+    for c in cases {
+        let args: Vec<&str> = base.iter().copied().chain(c.iter().copied()).collect();
+        let r = relief(&args);
+        assert_eq!(r.status.code(), Some(2), "{c:?}");
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{c:?}: {err}");
+        assert!(err.starts_with("relief: error: "), "{err}");
+    }
+    let r = relief(&[
+        "mesh",
+        "--dem",
+        "/nonexistent.png",
+        "--max-error",
+        "1",
+        "--out",
+        o,
+    ]);
+    assert_eq!(r.status.code(), Some(2));
+    assert!(!out.exists(), "no output on errors");
+}
