@@ -87,13 +87,32 @@ pub(crate) fn triangle_error(t: &impl Terrain, g: &RefineGrid, p: [(i64, i64); 3
         Class::Outside => 0.0,
         Class::Straddle => f64::INFINITY,
         Class::Inside => {
+            let z = [
+                local(t, p[0].0, p[0].1),
+                local(t, p[1].0, p[1].1),
+                local(t, p[2].0, p[2].1),
+            ];
             let Some(plane) = Plane::new([
-                (p[0].0, p[0].1, local(t, p[0].0, p[0].1)),
-                (p[1].0, p[1].1, local(t, p[1].0, p[1].1)),
-                (p[2].0, p[2].1, local(t, p[2].0, p[2].1)),
+                (p[0].0, p[0].1, z[0]),
+                (p[1].0, p[1].1, z[1]),
+                (p[2].0, p[2].1, z[2]),
             ]) else {
                 return 0.0;
             };
+            if super::raster::orient(p[0], p[1], p[2]).abs() == 2 {
+                // Area 1 (the finest vertex level): the samples are the three corners and the
+                // midpoint of the one edge of even length. Same values as rasterising.
+                let mut e = 0.0f64;
+                for k in 0..3 {
+                    let (a, b) = (p[k], p[(k + 1) % 3]);
+                    e = e.max((z[k] - plane.at(a.0, a.1)).abs());
+                    if (a.0 - b.0) % 2 == 0 && (a.1 - b.1) % 2 == 0 {
+                        let (mx, my) = ((a.0 + b.0) / 2, (a.1 + b.1) / 2);
+                        e = e.max((local(t, mx, my) - plane.at(mx, my)).abs());
+                    }
+                }
+                return e;
+            }
             let mut e = 0.0f64;
             for_each_span(p[0], p[1], p[2], |y, lo, hi| {
                 // A register accumulator per row (the captured `e` would be stored every step).

@@ -322,3 +322,35 @@ proptest! {
         check_vi(&s, w, h, e);
     }
 }
+
+#[test]
+fn finest_level_fast_path_equals_rasterising() {
+    let (w, h) = (17u32, 12u32);
+    let s = grid(w, h, 23, 77.0);
+    let hf = Heightfield::with_scale(&s, w, h, Scale::default().with_z_scale(0.37)).unwrap();
+    let g = RefineGrid::new(w, h).unwrap();
+    let mut checked = 0;
+    for y in 0..h {
+        for x in 0..w {
+            for tri in g.diamond(x, y).iter().flatten() {
+                if g.classify(*tri) != grid::Class::Inside
+                    || raster::orient(tri[0], tri[1], tri[2]).abs() != 2
+                {
+                    continue;
+                }
+                let fast = preprocess::triangle_error(&hf, &g, *tri);
+                let z = |p: (i64, i64)| hf.local_z(p.0 as u32, p.1 as u32) as f64;
+                let pl = raster::Plane::new(tri.map(|p| (p.0, p.1, z(p)))).unwrap();
+                let mut slow = 0.0f64;
+                raster::for_each_span(tri[0], tri[1], tri[2], |yy, lo, hi| {
+                    for xx in lo..=hi {
+                        slow = slow.max((z((xx, yy)) - pl.at(xx, yy)).abs());
+                    }
+                });
+                assert_eq!(fast.to_bits(), slow.to_bits());
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 100);
+}
