@@ -136,7 +136,9 @@ impl fmt::Display for Error {
                 write!(f, "buffer holds {actual} elements, {needed} needed")
             }
             Error::InvalidCamera { reason } => write!(f, "invalid camera: {reason}"),
-            Error::NonFiniteInput { name } => write!(f, "{name} is NaN, infinite or zero"),
+            Error::NonFiniteInput { name } => {
+                write!(f, "{name} is NaN, infinite, zero or out of range")
+            }
             Error::OutOfBounds { x, y } => {
                 write!(f, "grid coordinate ({x}, {y}) is outside the heightfield")
             }

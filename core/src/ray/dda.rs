@@ -146,15 +146,6 @@ impl GridLine {
             )
         };
         let pos_u = mu >= 0.0;
-        // A zero minor component lies on a grid line parallel to the major axis: pick the side
-        // inside the domain on the upper border.
-        let pos_v = if mv > 0.0 {
-            true
-        } else if mv < 0.0 {
-            false
-        } else {
-            sv < nv as f64
-        };
         // Fixed-point direction: max(|DX|, |DY|) in [2^39, 2^40].
         let (dxi, dyi) = if degenerate {
             (1i64 << (DIR_BITS - 1), 0i64)
@@ -164,6 +155,14 @@ impl GridLine {
             let dy = libm::round(libm::ldexp(mv.abs(), DIR_BITS - e)) as i64;
             (dx, dy.min(dx))
         };
+        // A minor component that is zero *in fixed point* (exactly zero, or too small to register
+        // against the major one) makes the line parallel to the major axis. If it starts on a grid
+        // line, pick the side inside the domain (the upper one except on the upper border), for
+        // both DDAs alike: folding by the sign of a component that rounded to zero would put the
+        // start on the far side of its row boundary, where the cell DDA takes a corner step out of
+        // the grid and the run DDA does not (found by fuzzing: start (0.5, 0), direction
+        // (1, -1e-30)).
+        let pos_v = if dyi == 0 { sv < nv as f64 } else { mv > 0.0 };
         let q = dxi << FRAC_BITS;
         let a = dyi << FRAC_BITS;
         let (r, rho) = if a > 0 {
@@ -174,19 +173,28 @@ impl GridLine {
         };
         let one = (1i64 << FRAC_BITS) as f64;
         let fold = |g: f64, pos: bool| if pos { g } else { -g };
-        let uf = libm::round(fold(su, pos_u) * one) as i64;
-        let vf = libm::round(fold(sv, pos_v) * one) as i64;
+        // Floor, not round: the start cell must be the cell the float start point lies in
+        // (rounding to the nearest 2^-21 moved points within 2^-22 below a row boundary into the
+        // next row, so the DDA skipped the cell the ray starts in; found by fuzzing).
+        let uf = libm::floor(fold(su, pos_u) * one) as i64;
+        let vf = libm::floor(fold(sv, pos_v) * one) as i64;
         let (umin, umax) = folded_range(nu, pos_u);
         let (vmin, vmax) = folded_range(nv, pos_v);
         let u0 = (uf >> FRAC_BITS).max(umin).min(umax);
         let v0 = (vf >> FRAC_BITS).max(vmin).min(vmax);
         // In [-A, Q]: both factors are below 2^21 + 1 and 2^40 + 1, so no overflow.
         let b0 = dxi * (vf - (v0 << FRAC_BITS)) + ((u0 << FRAC_BITS) - uf) * dyi;
+        // A line parallel to the major axis stays in its row: a start rounded onto the row's
+        // upper boundary (or clamped into the last row) must not read as a corner crossing.
+        let b0 = if dyi == 0 { b0.min(q - 1) } else { b0 };
         let (u_last, v_last) = if degenerate {
             (u0, v0)
         } else {
             let ue = libm::floor(fold(eu, pos_u)) as i64;
             let ve = libm::floor(fold(ev, pos_v)) as i64;
+            // Parallel in fixed point: the line never leaves its row, even when the float end
+            // point has drifted (by less than 2^-11 of a cell) across the row's boundary.
+            let ve = if dyi == 0 { v0 } else { ve };
             (ue.max(umin).min(umax), ve.max(vmin).min(vmax))
         };
         Ok(GridLine {

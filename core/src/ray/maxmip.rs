@@ -327,6 +327,11 @@ impl<T: Terrain> RayTracer<'_, T> {
         let Some(lr) = self.local(ray) else {
             return Ok(out);
         };
+        if let Some(hit) = self.start_hit(ray, &lr) {
+            out.cells = 1;
+            out.hit = Some(hit);
+            return Ok(out);
+        }
         let (sx, sy) = (lr.d.x >= 0.0, lr.d.y >= 0.0);
         let top = mip.levels - 1;
         let mut lvl = top;

@@ -74,6 +74,15 @@ impl Cells {
     }
 }
 
+/// Largest magnitude of a ray origin component, in world units (1e12: a billion kilometres).
+/// Beyond it `f64` resolves positions only to `1e-4` of a unit or worse, not enough to know
+/// which cell a ray enters.
+///
+/// ```
+/// assert_eq!(relief_core::ray::MAX_RAY_ORIGIN, 1e12);
+/// ```
+pub const MAX_RAY_ORIGIN: f64 = 1e12;
+
 /// A ray `origin + t * dir`, `t >= 0`, in world coordinates, kept in `f64`.
 ///
 /// ```
@@ -104,15 +113,19 @@ impl Ray {
     }
 
     /// A checked ray from `f64` vectors (for origins far from the grid, e.g. `1e6` away).
+    /// Origin components beyond `±MAX_RAY_ORIGIN` (1e12 world units) are rejected as
+    /// [`Error::NonFiniteInput`]: that far out, `f64` cannot tell which cell the ray enters
+    /// (found by fuzzing: an origin `1.7e38` away made the exact methods disagree).
     ///
     /// ```
-    /// use relief_core::ray::Ray;
+    /// use relief_core::ray::{Ray, MAX_RAY_ORIGIN};
     /// use glam::DVec3;
     /// assert!(Ray::new_f64(DVec3::new(1e6 + 0.125, 0.0, 1.0), DVec3::X).is_ok());
     /// assert!(Ray::new_f64(DVec3::ZERO, DVec3::new(0.0, f64::INFINITY, 0.0)).is_err());
+    /// assert!(Ray::new_f64(DVec3::new(0.0, -2.0 * MAX_RAY_ORIGIN, 0.0), DVec3::Y).is_err());
     /// ```
     pub fn new_f64(origin: DVec3, dir: DVec3) -> Result<Ray, Error> {
-        if !origin.is_finite() {
+        if !origin.is_finite() || origin.abs().max_element() > MAX_RAY_ORIGIN {
             return Err(Error::NonFiniteInput { name: "ray origin" });
         }
         if !dir.is_finite() || dir == DVec3::ZERO || !dir.length_squared().is_finite() {
@@ -386,6 +399,33 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
         Some(LocalRay { o, d, inv, t0, t1 })
     }
 
+    /// The hit at the clipped start `t0` when the ray is already at or below the surface there:
+    /// it starts below the terrain, or enters the domain's prism through a side below it. Tested
+    /// on its own so that a degenerate interval (a ray that enters below the lowest height, where
+    /// the clipped interval shrinks to the point `t0`) is not lost to rounding of the per-cell
+    /// intervals. Rays starting above the highest sample skip the test.
+    #[inline]
+    pub(crate) fn start_hit(&self, ray: &Ray, lr: &LocalRay) -> Option<Hit> {
+        let z0 = lr.z(lr.t0);
+        if z0 > self.zmax {
+            return None;
+        }
+        let fx = lr.o.x + lr.t0 * lr.d.x;
+        let fy = lr.o.y + lr.t0 * lr.d.y;
+        let cx = (libm::floor(fx).max(0.0) as u32).min(self.cells.x - 1);
+        let cy = (libm::floor(fy).max(0.0) as u32).min(self.cells.y - 1);
+        let h = cell::intersect(
+            self.surface,
+            lr,
+            cx,
+            cy,
+            &self.corners(cx, cy),
+            lr.t0,
+            lr.t0,
+        )?;
+        Some(self.make_hit(ray, cx, cy, h))
+    }
+
     /// The fixed-point digital line of a clipped local ray.
     pub(crate) fn line(&self, lr: &LocalRay) -> Option<GridLine> {
         let dxy = DVec2::new(lr.d.x, lr.d.y);
@@ -470,6 +510,11 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
         let Some(lr) = self.local(ray) else {
             return out;
         };
+        if let Some(hit) = self.start_hit(ray, &lr) {
+            out.cells = 1;
+            out.hit = Some(hit);
+            return out;
+        }
         let Some(line) = self.line(&lr) else {
             return out;
         };

@@ -221,6 +221,11 @@ impl<T: Terrain> RayTracer<'_, T> {
         let Some(lr) = self.local(ray) else {
             return Ok(out);
         };
+        if let Some(hit) = self.start_hit(ray, &lr) {
+            out.cells = 1;
+            out.hit = Some(hit);
+            return Ok(out);
+        }
         let Some(line) = self.line(&lr) else {
             return Ok(out);
         };

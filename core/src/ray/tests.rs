@@ -838,3 +838,65 @@ fn march_view_dependent_uses_fewer_samples_for_steep_rays() {
         flatr.samples
     );
 }
+
+/// Found by the `rays` fuzz target: a minor component too small to register in fixed point
+/// (`-1e-30` against `1`) must not fold the start across its row boundary, or the cell DDA takes
+/// a corner step out of the grid while the run DDA runs along the row.
+#[test]
+fn minor_component_that_rounds_to_zero_folds_like_an_exact_zero() {
+    use crate::ray::GridLine;
+    use glam::DVec2;
+    for (start, dir, want) in [
+        (DVec2::new(0.5, 0.0), DVec2::new(1.0, -1e-30), 0u32),
+        (DVec2::new(0.5, 0.0), DVec2::new(1.0, 0.0), 0),
+        (DVec2::new(0.5, 1.0), DVec2::new(1.0, -1e-30), 1),
+        (DVec2::new(0.5, 3.0), DVec2::new(1.0, 1e-30), 2),
+        (
+            DVec2::new(0.0, 2.2958874e-41),
+            DVec2::new(1.6878482e22, -4.239017e-18),
+            0,
+        ),
+        // The float end point drifts across the row boundary the start lies on.
+        (DVec2::new(0.0, 2.0), DVec2::new(1.0, -1e-17), 2),
+        // A start that rounds onto the upper border of the last row, exactly parallel.
+        (DVec2::new(0.0, 2.9999998), DVec2::new(2.67, 0.0), 2),
+    ] {
+        let line = GridLine::new(start, dir, start + dir * 64.0, [3, 3]).unwrap();
+        let cells: std::vec::Vec<[u32; 2]> = line.cells().collect();
+        let runs: std::vec::Vec<[u32; 2]> = line.runs().flat_map(|r| r.cells()).collect();
+        assert_eq!(cells, runs, "{start} {dir}");
+        assert_eq!(
+            cells,
+            std::vec![[0, want], [1, want], [2, want]],
+            "{start} {dir}"
+        );
+    }
+}
+
+/// Found by the `rays` fuzz target: a ray starting below the surface on a grid line, with a
+/// minor component that rounds to zero in fixed point, must hit at its start with every exact
+/// method (the cell DDA used to visit no cell at all).
+#[test]
+fn start_below_surface_on_a_grid_line_hits_at_start_with_every_method() {
+    use crate::ray::{MaxMip, Ray, RayTracer, RunAccel};
+    let mut s = std::vec![0.0f32; 36];
+    s[2] = 38.0;
+    let hf = crate::Heightfield::new(&s, 6, 6).unwrap();
+    let ray = Ray::new(
+        glam::Vec3::new(2.0, 0.0, 0.0),
+        glam::Vec3::new(-4822272.0, 1.6852324e22, 1.6852366e22),
+    )
+    .unwrap();
+    let t = RayTracer::new(&hf, crate::Surface::Triangles);
+    let mut acc = std::vec![0.0f32; RunAccel::len(6, 6).unwrap()];
+    let acc = RunAccel::build(&hf, &mut acc).unwrap();
+    let mut mip = std::vec![0.0f32; MaxMip::len(6, 6).unwrap()];
+    let mip = MaxMip::build(&hf, &mut mip).unwrap();
+    for tr in [
+        t.trace_cell_dda(&ray),
+        t.trace_run_dda(&ray, &acc).unwrap(),
+        t.trace_maxmip(&ray, &mip).unwrap(),
+    ] {
+        assert_eq!(tr.hit.map(|h| h.t), Some(0.0), "{tr:?}");
+    }
+}

@@ -1,0 +1,85 @@
+//! SOAR refinement with random grids, thresholds, cameras and capacities.
+//! Invariants: view-independent meshes are crack-free (the std crack checker of relief-tests) and
+//! their measured vertical error is at most E; view-dependent meshes without culling are
+//! crack-free, with culling they have no flipped or overlapping triangles; a buffer one element
+//! too small is an error, never a truncated mesh.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use relief_core::glam::Vec3;
+use relief_core::refine::{
+    coverage_len, preprocess, scratch_len, triangle_bound, vertex_bound, vertical_error, Criterion,
+    Refiner, View,
+};
+use relief_core::{Camera, Heightfield, Scale};
+use relief_tests::mesh_check::{check_mesh, CheckOptions};
+
+fn f32_at(d: &[u8], i: usize) -> f32 {
+    f32::from_le_bytes([0, 1, 2, 3].map(|k| d.get(i + k).copied().unwrap_or(0)))
+}
+
+fuzz_target!(|data: &[u8]| {
+    if data.len() < 40 {
+        return;
+    }
+    let w = u32::from(data[0] % 19) + 2;
+    let h = u32::from(data[1] % 19) + 2;
+    let dx = f32::from(data[2] % 7 + 1) * 0.5;
+    let e = f32::from(data[3]) * 0.25;
+    let samples: Vec<f32> = (0..w * h)
+        .map(|i| f32::from(data.get(40 + i as usize).copied().unwrap_or(0)) * 0.5)
+        .collect();
+    let hf =
+        Heightfield::with_scale(&samples, w, h, Scale::default().with_spacing(dx, dx)).unwrap();
+    let (mut err, mut rad) = (
+        vec![0.0f32; vertex_bound(w, h)],
+        vec![0.0f32; vertex_bound(w, h)],
+    );
+    let hier = preprocess(&hf, &mut err, &mut rad).unwrap();
+    let mut scratch = vec![0u64; scratch_len(w, h)];
+    let mut verts = vec![[0.0f32; 3]; vertex_bound(w, h)];
+    let mut tris = vec![[0u32; 3]; triangle_bound(w, h)];
+    let grid = CheckOptions::grid(w, h, f64::from(dx), f64::from(dx));
+
+    // View-independent.
+    let r = Refiner::new(&hier, &hf, Criterion::MaxError(e)).unwrap();
+    let c = r.triangles(&mut scratch, &mut verts, &mut tris).unwrap();
+    let (v, t) = (&verts[..c.vertices], &tris[..c.triangles]);
+    check_mesh(v, t, &grid).unwrap();
+    let measured = vertical_error(&hf, v, t, &mut vec![0; coverage_len(w, h)]).unwrap();
+    assert!(measured <= f64::from(e), "measured {measured} > E = {e}");
+    // One element too small: an error, not a silent truncation.
+    if c.triangles > 0 {
+        let mut short = vec![[0u32; 3]; c.triangles - 1];
+        assert!(r.triangles(&mut scratch, &mut verts, &mut short).is_err());
+    }
+
+    // View-dependent, from a camera made of the input bytes.
+    let eye = Vec3::new(f32_at(data, 4), f32_at(data, 8), f32_at(data, 12));
+    let target = Vec3::new(f32_at(data, 16), f32_at(data, 20), f32_at(data, 24));
+    let fov = f32_at(data, 28);
+    let tau = f32_at(data, 32);
+    let Ok(cam) = Camera::new(eye, target, fov, 64, 48) else {
+        return;
+    };
+    let Ok(view) = View::new(&cam, tau) else {
+        return;
+    };
+    for (culling, opts) in [
+        (false, grid),
+        (
+            true,
+            CheckOptions {
+                allow_holes: true,
+                t_junctions: false,
+                ..grid
+            },
+        ),
+    ] {
+        let Ok(r) = Refiner::new(&hier, &hf, Criterion::View(view.with_culling(culling))) else {
+            return;
+        };
+        let c = r.triangles(&mut scratch, &mut verts, &mut tris).unwrap();
+        check_mesh(&verts[..c.vertices], &tris[..c.triangles], &opts).unwrap();
+    }
+});
