@@ -140,14 +140,15 @@ fn parse_effects(s: &str) -> CliResult<Vec<Effect>> {
 }
 
 /// A rendered frame and what it cost.
-struct Rendered {
+pub(crate) struct Rendered {
     width: u32,
     height: u32,
     depth: Vec<f32>,
     color: Vec<[u8; 4]>,
     device: String,
     setup: Vec<(String, f64)>,
-    passes: Vec<(String, f64)>,
+    /// Per-frame passes with their milliseconds.
+    pub(crate) passes: Vec<(String, f64)>,
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -416,10 +417,12 @@ fn albedo(s: f32) -> Vec3 {
     }
 }
 
-fn render_cpu(
+/// The CPU backend: max-mip (or march) tracing with lighting, shadows and fog. Also the report's
+/// fallback for effect costs where no GPU adapter exists.
+pub(crate) fn render_cpu(
     hf: &Heightfield<'_, f32>,
     camera: &Camera,
-    a: &RenderArgs,
+    march: bool,
     effects: &[Effect],
 ) -> CliResult<Rendered> {
     if let Some(e) = effects
@@ -431,12 +434,7 @@ fn render_cpu(
             e.name()
         )));
     }
-    if matches!(a.method, RenderMethod::Mesh | RenderMethod::Silhouette) {
-        return Err(CliError(
-            "--method mesh and --method silhouette need --backend gpu".into(),
-        ));
-    }
-    let (w, h) = a.size;
+    let (w, h) = (camera.width, camera.height);
     let t0 = Instant::now();
     let len =
         MaxMip::len(hf.width(), hf.height()).ok_or_else(|| CliError("grid too small".into()))?;
@@ -447,7 +445,6 @@ fn render_cpu(
     let (zmin, zmax) = tracer.height_range();
     let shading = relief_wgpu::raycast::Shading::default();
     let sun = shading.sun.normalize();
-    let march = a.method == RenderMethod::March;
     let opts = MarchOptions::default();
     let trace = |ray: &Ray| -> Result<Option<relief_core::Hit>, String> {
         if march {
@@ -566,7 +563,14 @@ pub fn run(a: &RenderArgs) -> CliResult {
     let hf: Heightfield<'_, f32> = dem.heightfield()?;
     let r = match a.backend {
         Backend::Gpu => render_gpu(&hf, &camera, a, &effects)?,
-        Backend::Cpu => render_cpu(&hf, &camera, a, &effects)?,
+        Backend::Cpu => {
+            if matches!(a.method, RenderMethod::Mesh | RenderMethod::Silhouette) {
+                return Err(CliError(
+                    "--method mesh and --method silhouette need --backend gpu".into(),
+                ));
+            }
+            render_cpu(&hf, &camera, a.method == RenderMethod::March, &effects)?
+        }
     };
     write_png(&a.out, r.width, r.height, &r.color)?;
     if let Some(p) = &a.depth_out {

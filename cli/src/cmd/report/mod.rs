@@ -3,6 +3,7 @@
 //! figures into the output folder. Every number is measured in the run that writes it.
 
 mod diagrams;
+mod effects;
 mod mesh;
 mod model;
 mod plot;
@@ -154,6 +155,7 @@ pub fn run(a: &ReportArgs) -> CliResult {
         ("mesh", mesh::mesh),
         ("rays", rays::rays),
         ("rbf", sections::rbf),
+        ("effects", effects::effects),
         ("diagrams", diagrams::diagrams),
     ];
     let bar = ProgressBar::new(plan.len() as u64);
