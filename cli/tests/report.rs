@@ -67,7 +67,9 @@ fn quick_report_has_every_section_and_figure() {
     let json = run_report(&out);
     all_numbers_finite(&json, "report");
     let sections = json["sections"].as_object().unwrap();
-    for id in ["terrain", "normals", "mesh", "rays", "rbf", "effects", "diagrams"] {
+    for id in [
+        "terrain", "normals", "mesh", "rays", "rbf", "effects", "diagrams",
+    ] {
         assert!(sections.contains_key(id), "missing section {id}");
     }
     let html = std::fs::read_to_string(out.join("index.html")).unwrap();

@@ -56,8 +56,8 @@ pub use error::Error;
 pub use heightfield::{Heightfield, Scale, Surface, Terrain, MAX_ABS_HEIGHT, MIN_SCALE};
 pub use normals::{normal, normal_from_gradient, normal_map, NormalMethod};
 pub use ray::{Hit, Ray, RayTracer, Trace};
-pub use sample::Sample;
 pub use rbf::{AdaptiveGrid, Cascades, InfluenceSets, Rbf};
 pub use refine::{Hierarchy, RefineGrid, Refiner};
+pub use sample::Sample;
 
 pub use glam;
