@@ -527,3 +527,114 @@ fn inout_strip_on_a_real_dem_has_fewer_than_two_indices_per_triangle() {
     );
     assert!(c.indices_per_triangle() < 2.0);
 }
+
+/// The smallest conforming bisection mesh whose every triangle is within E of the samples it
+/// covers (a least fixed point: split every triangle over E, close under parents, repeat), for a
+/// square (2^k+1)^2 grid. Returns its triangle count.
+fn smallest_conforming<T: Terrain>(t: &T, e: f64) -> usize {
+    let n = (t.width() - 1) as i64;
+    let w = t.width() as i64;
+    let mut active = vec![false; (w * w) as usize];
+    let z = |x: i64, y: i64| t.local_z(x as u32, y as u32) as f64;
+    // Parents of a hierarchy vertex (the apexes of its diamond), corners excluded.
+    let parents = |x: i64, y: i64| -> Vec<(i64, i64)> {
+        let s = 1i64 << (x | y).trailing_zeros();
+        let ok = |p: (i64, i64)| {
+            p.0 >= 0
+                && p.1 >= 0
+                && p.0 <= n
+                && p.1 <= n
+                && !((p.0 == 0 || p.0 == n) && (p.1 == 0 || p.1 == n))
+        };
+        let c: Vec<(i64, i64)> = if (x / s) % 2 == 1 && (y / s) % 2 == 1 {
+            let (x0, y0) = (x - s, y - s);
+            if ((x0 / (2 * s)) + (y0 / (2 * s))) % 2 == 0 {
+                vec![(x + s, y - s), (x - s, y + s)]
+            } else {
+                vec![(x - s, y - s), (x + s, y + s)]
+            }
+        } else if (x / s) % 2 == 1 {
+            vec![(x, y - s), (x, y + s)]
+        } else {
+            vec![(x - s, y), (x + s, y)]
+        };
+        c.into_iter().filter(|&p| ok(p)).collect()
+    };
+    let own_error = |l: (i64, i64), r: (i64, i64), a: (i64, i64)| -> f64 {
+        let det = ((r.0 - l.0) * (a.1 - l.1) - (a.0 - l.0) * (r.1 - l.1)) as f64;
+        let (x0, x1) = (l.0.min(r.0).min(a.0), l.0.max(r.0).max(a.0));
+        let (y0, y1) = (l.1.min(r.1).min(a.1), l.1.max(r.1).max(a.1));
+        let mut m = 0.0f64;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let b1 = ((x - l.0) * (a.1 - l.1) - (a.0 - l.0) * (y - l.1)) as f64 / det;
+                let b2 = ((r.0 - l.0) * (y - l.1) - (x - l.0) * (r.1 - l.1)) as f64 / det;
+                let b0 = 1.0 - b1 - b2;
+                if b0 < -1e-12 || b1 < -1e-12 || b2 < -1e-12 {
+                    continue;
+                }
+                let p = b0 * z(l.0, l.1) + b1 * z(r.0, r.1) + b2 * z(a.0, a.1);
+                m = m.max((z(x, y) - p).abs());
+            }
+        }
+        m
+    };
+    loop {
+        // Emitted triangles of the current active set; collect the split vertices of those over E.
+        let mut stack = vec![((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))];
+        let mut tris = 0usize;
+        let mut add = Vec::new();
+        while let Some((l, r, a)) = stack.pop() {
+            if (l.0 - r.0).abs() == 1 && (l.1 - r.1).abs() == 1 {
+                tris += 1;
+                continue;
+            }
+            let m = ((l.0 + r.0) / 2, (l.1 + r.1) / 2);
+            if active[(m.1 * w + m.0) as usize] {
+                stack.push((a, l, m));
+                stack.push((r, a, m));
+            } else {
+                tris += 1;
+                if own_error(l, r, a) > e {
+                    add.push(m);
+                }
+            }
+        }
+        if add.is_empty() {
+            return tris;
+        }
+        while let Some(m) = add.pop() {
+            let i = (m.1 * w + m.0) as usize;
+            if !active[i] {
+                active[i] = true;
+                add.extend(parents(m.0, m.1));
+            }
+        }
+    }
+}
+
+/// How far relief's nested-error mesh is from the smallest conforming mesh meeting E (printed;
+/// run with `--nocapture`). Nesting can only add vertices, so relief's mesh is never smaller.
+#[test]
+fn distance_from_the_smallest_conforming_mesh() {
+    let dems = real_dems();
+    let Some((_, dem)) = dems.iter().find(|(n, _)| n.starts_with("diligent")) else {
+        eprintln!("skipping: diligent_ps_height_1k.png not found");
+        return;
+    };
+    let hf = dem.heightfield().unwrap();
+    let n = hierarchy_len(dem.width, dem.height);
+    let (mut ef, mut rf) = (vec![0.0; n], vec![0.0; n]);
+    let full = preprocess(&hf, &mut ef, &mut rf).unwrap();
+    for e in [5.0f32, 20.0, 50.0] {
+        let m = refine(&full, &hf, Criterion::MaxError(e));
+        let best = smallest_conforming(&hf, e as f64);
+        eprintln!(
+            "Puget E={e} m: relief {} triangles, smallest conforming {best}, ratio {:.4}",
+            m.t.len(),
+            m.t.len() as f64 / best as f64
+        );
+        assert!(m.t.len() >= best);
+        assert!((m.t.len() as f64) < best as f64 * 1.1);
+    }
+}
