@@ -167,7 +167,8 @@ pub fn run(a: &MeshArgs) -> CliResult {
     let mut triangles = vec![[0u32; 3]; counts.triangles];
     refiner.triangles(&mut scratch, &mut vertices, &mut triangles)?;
     let refine_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let strip = strip_stats(&refiner, &hf, w, h)?;
+    let strip = strip_stats(&refiner, &hf, w, h, false)?;
+    let soar_strip = strip_stats(&refiner, &hf, w, h, true)?;
     let mut cov = vec![0u64; coverage_len(w, h)];
     let (max_err, uncovered) = vertical_error_partial(&hf, &vertices, &triangles, &mut cov)?;
     if criterion_kind == "view-independent" && uncovered.is_some() {
@@ -179,13 +180,17 @@ pub fn run(a: &MeshArgs) -> CliResult {
     relief_io::write_obj(&a.out, &vertices, &triangles)?;
     let uncovered_n = uncovered.map_or(0, |u| u.2);
     if a.json {
-        let strip_json = strip.map(|s| {
-            serde_json::json!({
-                "indices": s.indices,
-                "triangles": s.triangles,
-                "indices_per_triangle": s.indices_per_triangle(),
+        let stats = |c: Option<StripCounts>| {
+            c.map(|s| {
+                serde_json::json!({
+                    "indices": s.indices,
+                    "triangles": s.triangles,
+                    "indices_per_triangle": s.indices_per_triangle(),
+                })
             })
-        });
+        };
+        let strip_json = stats(strip);
+        let soar_json = stats(soar_strip);
         let v = serde_json::json!({
             "width": w,
             "height": h,
@@ -200,6 +205,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
             "refine_ms": refine_ms,
             "strip_length": strip.map(|s| s.indices),
             "inout_strip": strip_json,
+            "soar_strip": soar_json,
             "out": a.out.display().to_string(),
         });
         print_out(&format!("{v}\n"))
@@ -231,12 +237,14 @@ fn unreachable_criterion() -> CliResult<Criterion> {
     ))
 }
 
-/// The in/out-edge strip's size (square `(2^k+1)^2` grids only).
+/// The size of the in/out-edge strip (or SOAR's original strip with `soar`); square
+/// `(2^k+1)^2` grids only.
 fn strip_stats(
     r: &Refiner<'_, '_, Heightfield<'_, f32>>,
     _hf: &Heightfield<'_, f32>,
     w: u32,
     h: u32,
+    soar: bool,
 ) -> CliResult<Option<StripCounts>> {
     if !relief_core::refine::RefineGrid::new(w, h)?.is_square() {
         return Ok(None);
@@ -244,5 +252,9 @@ fn strip_stats(
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let mut v = vec![[0.0f32; 3]; hierarchy_len(w, h)];
     let mut s = vec![0u32; strip_bound(w, h)];
-    Ok(Some(r.inout_strip(&mut scratch, &mut v, &mut s)?))
+    Ok(Some(if soar {
+        r.soar_strip(&mut scratch, &mut v, &mut s)?
+    } else {
+        r.inout_strip(&mut scratch, &mut v, &mut s)?
+    }))
 }

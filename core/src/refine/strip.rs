@@ -67,9 +67,71 @@ struct Strip<'r, 'h, 't, T: Terrain, O: Out> {
     first: bool,
     left_only: bool,
     levels: u32,
+    parity: bool,
 }
 
 impl<T: Terrain, O: Out> Strip<'_, '_, '_, T, O> {
+    /// SOAR's `tstrip_append`: skip a vertex already in the last two; insert a degenerate
+    /// (repeat the second-to-last index) when the new vertex has the strip's current parity.
+    fn append_parity(&mut self, v: P, p: bool) {
+        let in_last = (self.len >= 1 && v == self.last[1]) || (self.len >= 2 && v == self.last[0]);
+        if in_last {
+            return;
+        }
+        if p != self.parity {
+            self.parity = p;
+        } else {
+            self.turn_corner();
+        }
+        self.append(v);
+    }
+
+    /// SOAR's `submesh_refine` (Lindstrom & Pascucci 2001): triangle with apex `i` and split
+    /// vertex `j`, entered at `p`; `i` (at `level`) is tested, and appended between the two
+    /// children's strips.
+    fn soar_submesh(&mut self, i: P, j: P, p: P, level: u32, planes: u8) {
+        let mut pl = planes;
+        let forced = level == 0;
+        if !(forced || self.active(i, level, &mut pl)) {
+            return;
+        }
+        let parity = (self.levels - level) % 2 == 1;
+        if level + 1 < self.levels {
+            let q = (2 * j.0 - p.0, 2 * j.1 - p.1);
+            self.soar_submesh(j, mid(i, p), p, level + 1, pl);
+            self.append_parity(i, parity);
+            self.soar_submesh(j, mid(i, q), i, level + 1, pl);
+        } else {
+            self.append_parity(i, parity);
+        }
+    }
+
+    /// SOAR's `mesh_refine`: the four base triangles around the (always refined) centre.
+    fn run_soar(&mut self) {
+        let n = self.r.g.side() as i64;
+        if n < 2 {
+            for v in [(1, 0), (1, 1), (0, 0), (0, 1)] {
+                self.append(v);
+            }
+            return;
+        }
+        let h = n / 2;
+        let c = (h, h);
+        let mask = self.r.view.map_or(0, |v| v.mask);
+        let bases = [
+            ((h, 0), (0, 0), (n, 0)),
+            ((n, h), (n, 0), (n, n)),
+            ((h, n), (n, n), (0, n)),
+            ((0, h), (0, n), (0, 0)),
+        ];
+        self.append((0, 0));
+        self.append((0, 0));
+        self.parity = true;
+        for (m, p, q) in bases {
+            self.soar_submesh(c, m, p, 0, mask);
+            self.append_parity(q, true);
+        }
+    }
     #[inline(always)]
     fn append(&mut self, v: P) {
         if self.len >= 2 && v != self.last[0] && v != self.last[1] && self.last[0] != self.last[1] {
@@ -259,6 +321,42 @@ impl<T: Terrain> Refiner<'_, '_, T> {
         vertices: &mut [[f32; 3]],
         strip: &mut [u32],
     ) -> Result<StripCounts, Error> {
+        self.strip(scratch, vertices, strip, false)
+    }
+
+    /// SOAR's original generalized triangle strip (Lindstrom & Pascucci 2001: `submesh_refine`
+    /// appending each triangle's apex between its children, `tstrip_append` inserting a
+    /// degenerate triangle when parities match), for a square `(2^k+1)^2` grid; same buffers,
+    /// counts and errors as [`Refiner::inout_strip`]. The square's centre is always refined.
+    ///
+    /// ```
+    /// use relief_core::refine::{preprocess, scratch_len, strip_bound, Criterion, Refiner};
+    /// use relief_core::Heightfield;
+    /// let hf = Heightfield::new(&[0.0f32; 25], 5, 5).unwrap();
+    /// let (mut e, mut r) = ([0.0; 25], [0.0; 25]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(1.0)).unwrap();
+    /// let mut v = vec![[0.0f32; 3]; 25];
+    /// let mut s = vec![0u32; strip_bound(5, 5)];
+    /// let c = rf.soar_strip(&mut vec![0; scratch_len(5, 5)], &mut v, &mut s).unwrap();
+    /// assert_eq!((c.vertices, c.triangles), (5, 4)); // flat: the four base triangles
+    /// ```
+    pub fn soar_strip(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [[f32; 3]],
+        strip: &mut [u32],
+    ) -> Result<StripCounts, Error> {
+        self.strip(scratch, vertices, strip, true)
+    }
+
+    fn strip(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [[f32; 3]],
+        strip: &mut [u32],
+        soar: bool,
+    ) -> Result<StripCounts, Error> {
         if !self.g.is_square() {
             return Err(Error::InvalidParameter {
                 name: "strip grid (needs a (2^k+1) x (2^k+1) grid)",
@@ -279,8 +377,13 @@ impl<T: Terrain> Refiner<'_, '_, T> {
             first: true,
             left_only: false,
             levels: self.g.levels(),
+            parity: false,
         };
-        pass1.run();
+        if soar {
+            pass1.run_soar();
+        } else {
+            pass1.run();
+        }
         let (len, tris) = (pass1.len, pass1.tris);
         let bits: &[u64] = pass1.out.bits;
         let mut acc = 0u64;
@@ -311,8 +414,13 @@ impl<T: Terrain> Refiner<'_, '_, T> {
             first: true,
             left_only: false,
             levels: self.g.levels(),
+            parity: false,
         };
-        pass2.run();
+        if soar {
+            pass2.run_soar();
+        } else {
+            pass2.run();
+        }
         Ok(counts)
     }
 }

@@ -169,6 +169,15 @@ pub(crate) fn decode(strip: &[u32]) -> Vec<[u32; 3]> {
 
 #[test]
 fn inout_strip_draws_the_list_mesh() {
+    strips_draw_the_list_mesh(false);
+}
+
+#[test]
+fn soar_strip_draws_the_list_mesh() {
+    strips_draw_the_list_mesh(true);
+}
+
+fn strips_draw_the_list_mesh(soar: bool) {
     for (n, seed, e) in [
         (3u32, 1u64, 0.0f32),
         (5, 2, 0.0),
@@ -185,7 +194,11 @@ fn inout_strip_draws_the_list_mesh() {
         let mut sc = vec![0; scratch_len(n, n)];
         let mut v = vec![[0.0; 3]; (n * n) as usize];
         let mut st = vec![0; strip_bound(n, n)];
-        let c = r.inout_strip(&mut sc, &mut v, &mut st).unwrap();
+        let c = if soar {
+            r.soar_strip(&mut sc, &mut v, &mut st).unwrap()
+        } else {
+            r.inout_strip(&mut sc, &mut v, &mut st).unwrap()
+        };
         let tris = decode(&st[..c.indices]);
         assert_eq!(tris.len(), c.triangles);
         let m = Mesh {
