@@ -3,7 +3,7 @@
 # calls can reach a panic. With --prove, also shows the check catches an added `unwrap()`.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-export RUSTFLAGS="-C link-arg=-Wl,--no-undefined"
+export RUSTFLAGS="-C link-arg=-Wl,--no-undefined -C link-arg=-lc"
 build() { cargo build --quiet --release --manifest-path "$1/Cargo.toml" 2>&1; }
 if out=$(build "$here"); then
   echo "panic-freedom: no panic path reachable from the checked relief-core entry points"

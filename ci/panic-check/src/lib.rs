@@ -5,7 +5,7 @@
 #![allow(clippy::missing_safety_doc)]
 
 use core::slice;
-use relief_core::glam::{Vec3, Vec4};
+use relief_core::glam::{Vec2, Vec3, Vec4};
 use relief_core::{
     normal, normal_map, Camera, Composed, Heightfield, NormalMethod, Scale, Surface, Terrain,
 };
@@ -170,4 +170,296 @@ pub extern "C" fn pc_camera(
         acc += planes.iter().map(|p| p.dot(Vec4::ONE)).sum::<f32>();
     }
     acc
+}
+
+// ---- Ray traversal (core::ray) ----
+
+use relief_core::glam::DVec2;
+use relief_core::ray::{GridLine, MarchOptions, MaxMip, Ray, RayTracer, RunAccel};
+
+/// Every traversal and intersection method on a caller's grid and ray.
+#[no_mangle]
+pub unsafe extern "C" fn pc_rays(
+    p: *const f32,
+    len: usize,
+    w: u32,
+    h: u32,
+    s: &[f32; 4],
+    o: &[f32; 3],
+    d: &[f32; 3],
+    acc: *mut f32,
+    acc_len: usize,
+    mip: *mut f32,
+    mip_len: usize,
+    samples: u32,
+    k: u32,
+) -> f64 {
+    let Ok(hf) = Heightfield::with_scale(view(p, len), w, h, scale(s)) else {
+        return -1.0;
+    };
+    let Ok(ray) = Ray::new(Vec3::from(*o), Vec3::from(*d)) else {
+        return -2.0;
+    };
+    let surf = match k % 4 {
+        0 => Surface::Triangles,
+        1 => Surface::Bilinear,
+        2 => Surface::Plane,
+        _ => Surface::Nearest,
+    };
+    let tracer = RayTracer::new(&hf, surf);
+    let mut sum = tracer.trace_cell_dda(&ray).hit.map_or(0.0, |h| h.t) + tracer.step_bound() as f64;
+    if let Ok(a) = RunAccel::build(&hf, view_mut(acc, acc_len)) {
+        sum += tracer
+            .trace_run_dda(&ray, &a)
+            .map_or(0.0, |t| t.hit.map_or(0.0, |h| h.t));
+        sum += f64::from(a.row_max(k, 0, w).unwrap_or(0.0))
+            + f64::from(a.col_max(k, 0, h).unwrap_or(0.0));
+    }
+    let mip_buf = view_mut(mip, mip_len);
+    let _ = MaxMip::update(&hf, mip_buf, k, k, k + 3, k + 2);
+    if let Ok(m) = MaxMip::build(&hf, mip_buf) {
+        sum += tracer
+            .trace_maxmip(&ray, &m)
+            .map_or(0.0, |t| t.hit.map_or(0.0, |h| h.t));
+        sum += f64::from(m.node(k % 4, k, k)) + m.step_bound() as f64;
+    }
+    let opts = MarchOptions::default()
+        .with_samples(samples)
+        .with_refine(k % 70);
+    sum += tracer.trace_march(&ray, &opts).map_or(0.0, |m| m.bracket);
+    sum
+}
+
+/// The digital lines alone.
+#[no_mangle]
+pub extern "C" fn pc_grid_line(s: &[f64; 2], d: &[f64; 2], e: &[f64; 2], cells: &[u32; 2]) -> u64 {
+    let Ok(line) = GridLine::new(DVec2::from(*s), DVec2::from(*d), DVec2::from(*e), *cells) else {
+        return 0;
+    };
+    let a = line
+        .cells()
+        .fold(0u64, |n, c| n.wrapping_add(u64::from(c[0] ^ c[1])));
+    let b = line.runs().fold(0u64, |n, r| {
+        n.wrapping_add(u64::from(r.len))
+            .wrapping_add(r.cells().count() as u64)
+    });
+    a ^ b ^ line.step_bound()
+}
+
+// ---- Refinement (core::refine) ----
+
+use relief_core::refine::{
+    preprocess, preprocess_compact, vertical_error, Criterion, MorphVertex, Refiner, View,
+};
+
+/// Preprocessing (both layouts) and every refinement output, view-independent or view-dependent.
+#[no_mangle]
+pub unsafe extern "C" fn pc_refine(
+    p: *const u16,
+    len: usize,
+    w: u32,
+    h: u32,
+    s: &[f32; 4],
+    err: *mut f32,
+    rad: *mut f32,
+    qerr: *mut u16,
+    n: usize,
+    scratch: *mut u64,
+    scratch_len: usize,
+    verts: *mut [f32; 3],
+    verts_len: usize,
+    tris: *mut [u32; 3],
+    tris_len: usize,
+    strip: *mut u32,
+    strip_len: usize,
+    morph: *mut MorphVertex,
+    morph_len: usize,
+    cov: *mut u64,
+    cov_len: usize,
+    e: f32,
+    cam: &[f32; 8],
+) -> f64 {
+    let Ok(hf) = Heightfield::with_scale(view(p, len), w, h, scale(s)) else {
+        return -1.0;
+    };
+    let mut acc = 0.0f64;
+    if let Ok(hc) = preprocess_compact(&hf, view_mut(qerr, n)) {
+        acc += hc.bytes_per_vertex() as f64;
+        if let Ok(r) = Refiner::new(&hc, &hf, Criterion::MaxError(e)) {
+            acc += r
+                .count(view_mut(scratch, scratch_len))
+                .map_or(0.0, |c| c.triangles as f64);
+        }
+    }
+    let Ok(hier) = preprocess(&hf, view_mut(err, n), view_mut(rad, n)) else {
+        return -2.0;
+    };
+    acc += f64::from(hier.error(1, 1).unwrap_or(0.0)) + f64::from(hier.radius(1, 1).unwrap_or(0.0));
+    let mut criteria = [Criterion::MaxError(e), Criterion::MaxError(e)];
+    if let Ok(c) = Camera::new(
+        Vec3::new(cam[0], cam[1], cam[2]),
+        Vec3::new(cam[3], cam[4], cam[5]),
+        cam[6],
+        640,
+        480,
+    ) {
+        if let Ok(v) = View::new(&c, cam[7]) {
+            criteria[1] = Criterion::View(v.with_lazy_levels(e as u32).with_geomorph(Some(cam[7])));
+        }
+    }
+    for crit in criteria {
+        let Ok(r) = Refiner::new(&hier, &hf, crit) else {
+            continue;
+        };
+        let sc = view_mut(scratch, scratch_len);
+        let vs = view_mut(verts, verts_len);
+        if let Ok(c) = r.triangles(sc, vs, view_mut(tris, tris_len)) {
+            let v = view(verts, c.vertices.min(verts_len));
+            let t = view(tris, c.triangles.min(tris_len));
+            acc += vertical_error(&hf, v, t, view_mut(cov, cov_len)).unwrap_or(0.0);
+        }
+        acc += r
+            .inout_strip(
+                view_mut(scratch, scratch_len),
+                view_mut(verts, verts_len),
+                view_mut(strip, strip_len),
+            )
+            .map_or(0.0, |c| c.indices as f64);
+        acc += r
+            .morph(view_mut(scratch, scratch_len), view_mut(morph, morph_len))
+            .unwrap_or(0) as f64;
+    }
+    acc
+}
+
+// ---- RBF and cascades (core::rbf) ----
+
+use relief_core::rbf::{
+    build_adaptive_grid, discretize, fit_cascades, AdaptiveGrid, CascadeOptions, Cell, GridOptions,
+    InfluenceSets, Rbf, RbfOptions,
+};
+
+/// Adaptive grid, influence sets, evaluation, cascades and discretization.
+#[no_mangle]
+pub unsafe extern "C" fn pc_rbf(
+    p: *const f32,
+    len: usize,
+    w: u32,
+    h: u32,
+    cells: *mut Cell,
+    cells_len: usize,
+    index: *mut u32,
+    index_len: usize,
+    offsets: *mut u32,
+    offsets_len: usize,
+    entries: *mut u32,
+    entries_len: usize,
+    opts: &[f32; 4],
+    cam: &[f32; 7],
+    mask: *mut u8,
+    values: *mut f32,
+    weights: *mut f32,
+    raster_len: usize,
+) -> f32 {
+    let Ok(hf) = Heightfield::new(view(p, len), w, h) else {
+        return -1.0;
+    };
+    let go = GridOptions::default()
+        .with_max_error(opts[0])
+        .with_cells(opts[1] as u32, opts[2] as u32);
+    let ro = RbfOptions::default().with_sigma(opts[3]);
+    let cells = view_mut(cells, cells_len);
+    let Ok(n) = build_adaptive_grid(&hf, &go, cells) else {
+        return -2.0;
+    };
+    let Ok(grid) = AdaptiveGrid::new(
+        w,
+        h,
+        cells.get(..n).unwrap_or(&[]),
+        view_mut(index, index_len),
+    ) else {
+        return -3.0;
+    };
+    let Ok(sets) = InfluenceSets::build(
+        &grid,
+        &ro,
+        view_mut(offsets, offsets_len),
+        view_mut(entries, entries_len),
+    ) else {
+        return -4.0;
+    };
+    let Ok(rbf) = Rbf::new(grid, sets, &ro) else {
+        return -5.0;
+    };
+    let mut acc = rbf.eval(Vec2::new(cam[0], cam[1])).unwrap_or(0.0);
+    if let Ok(c) = Camera::new(
+        Vec3::new(cam[0], cam[1], cam[2]),
+        Vec3::new(cam[3], cam[4], cam[5]),
+        cam[6],
+        320,
+        240,
+    ) {
+        let co = CascadeOptions::default().with_resolution(opts[1] as u32);
+        if let Ok(cs) = fit_cascades(&c, &grid, &Scale::default(), (0.0, opts[0]), &co, None) {
+            for cascade in &cs.cascades {
+                let m = view_mut(mask, raster_len);
+                acc += cascade.mask(m).unwrap_or(0) as f32;
+                acc += discretize(
+                    &rbf,
+                    cascade,
+                    view(mask, raster_len),
+                    view_mut(values, raster_len),
+                    view_mut(weights, raster_len),
+                )
+                .unwrap_or(0) as f32;
+            }
+        }
+    }
+    acc
+}
+
+// ---- Silhouette map (core::silhouette) ----
+
+use relief_core::silhouette::{
+    silhouette_envelope, silhouette_map, silhouette_map_len, tree_node_rows, SilhouetteTexel,
+};
+
+/// The silhouette map, tree rows and envelopes.
+#[no_mangle]
+pub unsafe extern "C" fn pc_silhouette(
+    p: *const f32,
+    len: usize,
+    w: u32,
+    h: u32,
+    cam: &[f32; 7],
+    sw: u32,
+    sh: u32,
+    near: f32,
+    map: *mut SilhouetteTexel,
+    map_len: usize,
+    env: *mut f32,
+    env_len: usize,
+    level: u32,
+    k: u32,
+) -> f32 {
+    let Ok(hf) = Heightfield::new(view(p, len), w, h) else {
+        return -1.0;
+    };
+    let Ok(c) = Camera::new(
+        Vec3::new(cam[0], cam[1], cam[2]),
+        Vec3::new(cam[3], cam[4], cam[5]),
+        cam[6],
+        sw,
+        sh,
+    ) else {
+        return -2.0;
+    };
+    let n = silhouette_map_len(sw, h).unwrap_or(0) as f32;
+    let m = view_mut(map, map_len);
+    if silhouette_map(&hf, &c, near, m).is_err() {
+        return -3.0;
+    }
+    let (a, b) = tree_node_rows(h, level, k).unwrap_or((0, 0));
+    n + silhouette_envelope(view(map, map_len), sw, a, b, view_mut(env, env_len))
+        .map_or(0.0, |()| 1.0)
 }

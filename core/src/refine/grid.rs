@@ -270,6 +270,8 @@ impl RefineGrid {
 /// Whether the `s x s` square at `(x0, y0)` is split along its main diagonal `(x0,y0)-(x0+s,y0+s)`.
 #[inline(always)]
 pub(crate) fn main_diagonal(x0: i64, y0: i64, s: i64) -> bool {
+    // Squares have a size of at least 1; the max keeps a division-by-zero panic path out.
+    let s = s.max(1);
     ((x0 / s) + (y0 / s)) % 2 == 0
 }
 

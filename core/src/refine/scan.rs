@@ -78,7 +78,8 @@ pub fn vertical_error_partial<T: Terrain>(
     triangles: &[[u32; 3]],
     coverage: &mut [u64],
 ) -> Result<(f64, Uncovered), Error> {
-    let (w, h) = (terrain.width() as usize, terrain.height() as usize);
+    // Grids have at least 2 x 2 samples; the max keeps a division-by-zero panic path out.
+    let (w, h) = (terrain.width().max(1) as usize, terrain.height() as usize);
     let n = w * h;
     let words = n.div_ceil(64);
     if coverage.len() < words {

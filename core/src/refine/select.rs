@@ -481,7 +481,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let c = self.select(scratch)?;
         need(c.vertices, out.len())?;
         let (bits, _) = split_scratch(scratch, self.g.len());
-        let w = self.g.width() as usize;
+        let w = (self.g.width() as usize).max(1); // never 0; the max keeps a panic path out
         let s = self.h.scale();
         let mut k = 0usize;
         for (wi, &word) in bits.iter().enumerate() {
@@ -606,7 +606,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     }
 
     pub(crate) fn write_vertices(&self, bits: &[u64], vertices: &mut [[f32; 3]]) {
-        let w = self.g.width() as usize;
+        let w = (self.g.width() as usize).max(1); // never 0; the max keeps a panic path out
         let s = self.h.scale();
         let mut k = 0usize;
         for (wi, &word) in bits.iter().enumerate() {
