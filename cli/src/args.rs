@@ -2,6 +2,7 @@
 
 use crate::{CliError, CliResult};
 use clap::Args;
+use relief_core::glam::Vec3;
 use relief_io::{read_dem, Dem, Fill, Format, ReadOptions};
 use std::path::PathBuf;
 
@@ -38,6 +39,51 @@ pub struct DemArgs {
     /// World height of a stored 0 (default 0).
     #[arg(long, allow_negative_numbers = true)]
     pub z_offset: Option<f32>,
+}
+
+/// Parses `X,Y,Z` into a finite vector (the camera options of every subcommand).
+pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 3 {
+        return Err(format!("expected X,Y,Z, got '{s}'"));
+    }
+    let mut v = [0.0f32; 3];
+    for (o, p) in v.iter_mut().zip(&parts) {
+        *o = p
+            .trim()
+            .parse::<f32>()
+            .map_err(|_| format!("'{p}' is not a number"))?;
+        if !o.is_finite() {
+            return Err(format!("'{p}' is not finite"));
+        }
+    }
+    Ok(Vec3::from_array(v))
+}
+
+/// Parses `WxH` with both sides at least 1 (a camera's image size).
+pub fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WxH, got '{s}'"))?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("bad width '{w}'"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("bad height '{h}'"))?;
+    if w == 0 || h == 0 {
+        return Err(format!("image size {w}x{h} must be at least 1x1"));
+    }
+    Ok((w, h))
+}
+
+/// Most pixels an image a subcommand renders may have: 2^26 (8192 x 8192), so that its depth
+/// and colour buffers stay within memory.
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 26;
+
+/// [`parse_size`] for images the subcommand allocates: at most [`MAX_IMAGE_PIXELS`].
+pub fn parse_image_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = parse_size(s)?;
+    if u64::from(w) * u64::from(h) > MAX_IMAGE_PIXELS {
+        return Err(format!("image size {w}x{h} exceeds 2^26 pixels"));
+    }
+    Ok((w, h))
 }
 
 fn parse_format(s: &str) -> Result<Format, String> {

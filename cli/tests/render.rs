@@ -9,6 +9,10 @@ use std::process::{Command, Output};
 fn relief(args: &[&str], env: &[(&str, &str)]) -> Output {
     let mut c = Command::new(env!("CARGO_BIN_EXE_relief"));
     c.args(args);
+    // Mesa prints a warning line of its own on stderr without a runtime dir (CI sets one).
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
     for (k, v) in env {
         c.env(k, v);
     }

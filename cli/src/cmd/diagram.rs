@@ -44,16 +44,16 @@ pub struct DiagramArgs {
     #[arg(long, value_name = "X,Y,W,H", value_parser = parse_u32x4)]
     crop: Option<[u32; 4]>,
     /// Camera eye X,Y,Z in world units (refine, cascades).
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = crate::args::parse_vec3)]
     eye: Option<Vec3>,
     /// Camera target X,Y,Z (refine, cascades).
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = crate::args::parse_vec3)]
     target: Option<Vec3>,
     /// Vertical field of view in degrees.
     #[arg(long, default_value_t = 60.0)]
     fov: f32,
     /// Image size WxH of the camera in pixels.
-    #[arg(long, value_name = "WxH", value_parser = parse_size, default_value = "640x480")]
+    #[arg(long, value_name = "WxH", value_parser = crate::args::parse_size, default_value = "640x480")]
     size: (u32, u32),
     /// refine: view-independent threshold (world z units); without --eye the default is 1 % of
     /// the height range.
@@ -136,11 +136,6 @@ fn parse_floats<const N: usize>(s: &str, what: &str) -> Result<[f64; N], String>
     Ok(v)
 }
 
-fn parse_vec3(s: &str) -> Result<Vec3, String> {
-    let v = parse_floats::<3>(s, "X,Y,Z")?;
-    Ok(Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32))
-}
-
 fn parse_vec2(s: &str) -> Result<DVec2, String> {
     let v = parse_floats::<2>(s, "X,Y")?;
     Ok(DVec2::new(v[0], v[1]))
@@ -156,15 +151,6 @@ fn parse_u32x4(s: &str) -> Result<[u32; 4], String> {
         *o = t.trim().parse::<u32>().map_err(|e| format!("{t:?}: {e}"))?;
     }
     Ok(v)
-}
-
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (a, b) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("expected WxH, got {s:?}"))?;
-    let w = a.trim().parse::<u32>().map_err(|e| format!("{a:?}: {e}"))?;
-    let h = b.trim().parse::<u32>().map_err(|e| format!("{b:?}: {e}"))?;
-    Ok((w, h))
 }
 
 fn camera(a: &DiagramArgs) -> CliResult<Option<Camera>> {

@@ -48,16 +48,16 @@ pub struct MeshArgs {
     #[arg(long, value_name = "E", conflicts_with_all = ["eye", "pixel_error"])]
     max_error: Option<f32>,
     /// View-dependent: eye position X,Y,Z in world units.
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3, requires_all = ["target", "size", "pixel_error"])]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = crate::args::parse_vec3, requires_all = ["target", "size", "pixel_error"])]
     eye: Option<Vec3>,
     /// View-dependent: point looked at X,Y,Z.
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = crate::args::parse_vec3)]
     target: Option<Vec3>,
     /// View-dependent: vertical field of view in degrees.
     #[arg(long, default_value_t = 60.0)]
     fov: f32,
     /// View-dependent: image size WxH in pixels.
-    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    #[arg(long, value_name = "WxH", value_parser = crate::args::parse_size)]
     size: Option<(u32, u32)>,
     /// View-dependent: largest projected error in pixels.
     #[arg(long, value_name = "T")]
@@ -77,27 +77,6 @@ pub struct MeshArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
-}
-
-fn parse_vec3(s: &str) -> Result<Vec3, String> {
-    let p: Vec<&str> = s.split(',').collect();
-    if p.len() != 3 {
-        return Err(format!("expected X,Y,Z, got {s:?}"));
-    }
-    let mut v = [0.0f32; 3];
-    for (o, t) in v.iter_mut().zip(p) {
-        *o = t.trim().parse::<f32>().map_err(|e| format!("{t:?}: {e}"))?;
-    }
-    Ok(Vec3::from_array(v))
-}
-
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (a, b) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("expected WxH, got {s:?}"))?;
-    let w = a.trim().parse::<u32>().map_err(|e| format!("{a:?}: {e}"))?;
-    let h = b.trim().parse::<u32>().map_err(|e| format!("{b:?}: {e}"))?;
-    Ok((w, h))
 }
 
 /// Runs `relief mesh`.

@@ -46,16 +46,16 @@ pub struct RenderArgs {
     #[command(flatten)]
     dem: DemArgs,
     /// Eye position X,Y,Z in world units.
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = crate::args::parse_vec3)]
     eye: Vec3,
     /// Point looked at X,Y,Z.
-    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = parse_vec3)]
+    #[arg(long, value_name = "X,Y,Z", allow_hyphen_values = true, value_parser = crate::args::parse_vec3)]
     target: Vec3,
     /// Vertical field of view in degrees.
     #[arg(long, default_value_t = 60.0)]
     fov: f32,
     /// Image size WxH in pixels.
-    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    #[arg(long, value_name = "WxH", value_parser = crate::args::parse_image_size)]
     size: (u32, u32),
     /// Where to render.
     #[arg(long, value_enum, default_value = "gpu")]
@@ -87,38 +87,6 @@ pub struct RenderArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
-}
-
-fn parse_vec3(s: &str) -> Result<Vec3, String> {
-    let parts: Vec<&str> = s.split(',').collect();
-    if parts.len() != 3 {
-        return Err(format!("expected X,Y,Z, got '{s}'"));
-    }
-    let mut v = [0.0f32; 3];
-    for (o, p) in v.iter_mut().zip(&parts) {
-        *o = p
-            .trim()
-            .parse::<f32>()
-            .map_err(|_| format!("'{p}' is not a number"))?;
-        if !o.is_finite() {
-            return Err(format!("'{p}' is not finite"));
-        }
-    }
-    Ok(Vec3::from_array(v))
-}
-
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("expected WxH, got '{s}'"))?;
-    let w: u32 = w.trim().parse().map_err(|_| format!("bad width '{w}'"))?;
-    let h: u32 = h.trim().parse().map_err(|_| format!("bad height '{h}'"))?;
-    if w == 0 || h == 0 || (w as u64) * (h as u64) > 1 << 26 {
-        return Err(format!(
-            "image size {w}x{h} must be at least 1x1 and at most 2^26 pixels"
-        ));
-    }
-    Ok((w, h))
 }
 
 fn parse_effects(s: &str) -> CliResult<Vec<Effect>> {
