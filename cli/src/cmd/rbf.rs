@@ -60,48 +60,13 @@ pub fn run(a: &RbfArgs) -> CliResult {
     let (w, h) = (hf.width(), hf.height());
     let scale = hf.scale();
 
-    // Build: adaptive grid, index map, influence sets.
-    let t0 = Instant::now();
-    let bound = adaptive_grid_bound(w, h).ok_or_else(|| CliError("grid too large".into()))?;
-    let mut cells = vec![Cell::default(); bound];
-    let n = build_adaptive_grid(&hf, &grid_opts, &mut cells)?;
-    cells.truncate(n);
-    let mut index = vec![0u32; bound];
-    let grid = AdaptiveGrid::new(w, h, &cells, &mut index)?;
-    let mut offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
-    let entries_len = InfluenceSets::entries_len(&grid, &rbf_opts)?;
-    let mut entries = Vec::new();
-    entries
-        .try_reserve_exact(entries_len)
-        .map_err(|_| CliError(format!("cannot allocate {entries_len} influence entries")))?;
-    entries.resize(entries_len, 0u32);
-    let sets = InfluenceSets::build(&grid, &rbf_opts, &mut offsets, &mut entries)?;
-    let rbf = Rbf::new(grid, sets, &rbf_opts)?;
-    let build_ms = t0.elapsed().as_secs_f64() * 1e3;
-
-    // Evaluate at every grid sample.
-    let t1 = Instant::now();
-    let mut approx = Vec::with_capacity(bound);
-    for y in 0..h {
-        for x in 0..w {
-            let v = rbf.eval(relief_core::glam::Vec2::new(x as f32, y as f32))?;
-            approx.push(v + scale.z_offset);
-        }
-    }
-    let eval_ms = t1.elapsed().as_secs_f64() * 1e3;
-
-    // Difference from the DEM in world units.
-    let (mut max_diff, mut sum_sq) = (0.0f64, 0.0f64);
-    for (k, v) in approx.iter().enumerate() {
-        let (x, y) = ((k % w as usize) as u32, (k / w as usize) as u32);
-        let d = f64::from(*v) - f64::from(hf.z(x, y));
-        max_diff = max_diff.max(d.abs());
-        sum_sq += d * d;
-    }
-    let rms_diff = (sum_sq / approx.len().max(1) as f64).sqrt();
+    let r = approximate(&hf, &grid_opts, &rbf_opts)?;
+    let (cells, entries_len, build_ms, eval_ms) = (&r.cells, r.entries, r.build_ms, r.eval_ms);
+    let (max_diff, rms_diff) = (r.max_diff, r.rms_diff);
+    let approx: Vec<f32> = r.approx.iter().map(|v| v + scale.z_offset).collect();
 
     relief_io::write_atomic(&a.cells_out, |wr: &mut dyn Write| {
-        for c in &cells {
+        for c in cells {
             writeln!(
                 wr,
                 "{},{},{},{}",
@@ -115,7 +80,7 @@ pub fn run(a: &RbfArgs) -> CliResult {
     })?;
     relief_io::write_raw_f32(&a.out, &approx)?;
 
-    let (min_size, max_size) = rbf.grid().size_range();
+    let (min_size, max_size) = r.size_range;
     if a.json {
         let v = serde_json::json!({
             "width": w,
@@ -140,4 +105,77 @@ pub fn run(a: &RbfArgs) -> CliResult {
             e = a.max_error,
         ))
     }
+}
+
+/// An RBF approximation of a whole DEM and what it cost.
+pub(crate) struct Approximation {
+    /// The adaptive grid's cells (values in local units).
+    pub cells: Vec<Cell>,
+    /// Smallest and largest cell size used.
+    pub size_range: (u32, u32),
+    /// Influence-set entries.
+    pub entries: usize,
+    /// The approximation at every grid sample, row-major, local units (`z_offset` not added).
+    pub approx: Vec<f32>,
+    /// Grid, index map and influence sets, milliseconds.
+    pub build_ms: f64,
+    /// Evaluation at every sample, milliseconds.
+    pub eval_ms: f64,
+    /// Largest `|approx - dem|` over all samples.
+    pub max_diff: f64,
+    /// RMS of `approx - dem` over all samples.
+    pub rms_diff: f64,
+}
+
+/// Builds the adaptive grid and influence sets for `hf` and evaluates the RBF at every sample
+/// (shared by `relief rbf` and the report).
+pub(crate) fn approximate(
+    hf: &relief_core::Heightfield<'_, f32>,
+    grid_opts: &GridOptions,
+    rbf_opts: &RbfOptions,
+) -> CliResult<Approximation> {
+    let (w, h) = (hf.width(), hf.height());
+    let t0 = Instant::now();
+    let bound = adaptive_grid_bound(w, h).ok_or_else(|| CliError("grid too large".into()))?;
+    let mut cells = vec![Cell::default(); bound];
+    let n = build_adaptive_grid(hf, grid_opts, &mut cells)?;
+    cells.truncate(n);
+    let mut index = vec![0u32; bound];
+    let grid = AdaptiveGrid::new(w, h, &cells, &mut index)?;
+    let mut offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
+    let entries_len = InfluenceSets::entries_len(&grid, rbf_opts)?;
+    let mut entries = Vec::new();
+    entries
+        .try_reserve_exact(entries_len)
+        .map_err(|_| CliError(format!("cannot allocate {entries_len} influence entries")))?;
+    entries.resize(entries_len, 0u32);
+    let sets = InfluenceSets::build(&grid, rbf_opts, &mut offsets, &mut entries)?;
+    let rbf = Rbf::new(grid, sets, rbf_opts)?;
+    let build_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t1 = Instant::now();
+    let mut approx = Vec::with_capacity(bound);
+    for y in 0..h {
+        for x in 0..w {
+            approx.push(rbf.eval(relief_core::glam::Vec2::new(x as f32, y as f32))?);
+        }
+    }
+    let eval_ms = t1.elapsed().as_secs_f64() * 1e3;
+    let (mut max_diff, mut sum_sq) = (0.0f64, 0.0f64);
+    for (k, v) in approx.iter().enumerate() {
+        let (x, y) = ((k % w as usize) as u32, (k / w as usize) as u32);
+        let d = f64::from(*v) - f64::from(hf.local_z(x, y));
+        max_diff = max_diff.max(d.abs());
+        sum_sq += d * d;
+    }
+    let size_range = rbf.grid().size_range();
+    Ok(Approximation {
+        cells,
+        size_range,
+        entries: entries_len,
+        rms_diff: (sum_sq / approx.len().max(1) as f64).sqrt(),
+        approx,
+        build_ms,
+        eval_ms,
+        max_diff,
+    })
 }

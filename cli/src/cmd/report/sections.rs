@@ -3,12 +3,9 @@
 use super::model::{num, Figure, Section, Table};
 use super::plot::{self, Chart, Series};
 use super::Ctx;
-use crate::{CliError, CliResult};
-use relief_core::glam::{Vec2, Vec3};
-use relief_core::rbf::{
-    adaptive_grid_bound, build_adaptive_grid, AdaptiveGrid, Cell, GridOptions, InfluenceSets, Rbf,
-    RbfOptions,
-};
+use crate::CliResult;
+use relief_core::glam::Vec3;
+use relief_core::rbf::{GridOptions, RbfOptions};
 use relief_core::{normal_map, NormalMethod, Terrain};
 use serde_json::json;
 use std::time::Instant;
@@ -148,64 +145,6 @@ pub fn normals(ctx: &Ctx<'_>) -> CliResult<Section> {
     Ok(s)
 }
 
-/// One RBF approximation of the whole DEM and its measured cost and error.
-struct RbfRun {
-    cells: usize,
-    build_ms: f64,
-    eval_ms: f64,
-    max_err: f64,
-    rms_err: f64,
-    approx: Vec<f32>,
-}
-
-fn rbf_run(
-    hf: &relief_core::Heightfield<'_, f32>,
-    e: f32,
-    min_cell: u32,
-    max_cell: u32,
-    sigma: f32,
-) -> CliResult<RbfRun> {
-    let (w, h) = (hf.width(), hf.height());
-    let grid_opts = GridOptions::default()
-        .with_max_error(e)
-        .with_cells(min_cell, max_cell);
-    let rbf_opts = RbfOptions::default().with_sigma(sigma);
-    let t0 = Instant::now();
-    let bound = adaptive_grid_bound(w, h).ok_or_else(|| CliError("grid too large".into()))?;
-    let mut cells = vec![Cell::default(); bound];
-    let n = build_adaptive_grid(hf, &grid_opts, &mut cells)?;
-    cells.truncate(n);
-    let mut index = vec![0u32; bound];
-    let grid = AdaptiveGrid::new(w, h, &cells, &mut index)?;
-    let mut offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
-    let mut entries = vec![0u32; InfluenceSets::entries_len(&grid, &rbf_opts)?];
-    let sets = InfluenceSets::build(&grid, &rbf_opts, &mut offsets, &mut entries)?;
-    let rbf = Rbf::new(grid, sets, &rbf_opts)?;
-    let build_ms = ms(t0);
-    let t1 = Instant::now();
-    let mut approx = Vec::with_capacity((w * h) as usize);
-    for y in 0..h {
-        for x in 0..w {
-            approx.push(rbf.eval(Vec2::new(x as f32, y as f32))?);
-        }
-    }
-    let eval_ms = ms(t1);
-    let (mut max_err, mut sq) = (0.0f64, 0.0f64);
-    for (k, v) in approx.iter().enumerate() {
-        let d = f64::from(*v) - f64::from(hf.local_z(k as u32 % w, k as u32 / w));
-        max_err = max_err.max(d.abs());
-        sq += d * d;
-    }
-    Ok(RbfRun {
-        cells: n,
-        build_ms,
-        eval_ms,
-        max_err,
-        rms_err: (sq / approx.len() as f64).sqrt(),
-        approx,
-    })
-}
-
 /// RBF on adaptive grids: approximation error against sigma and the merge threshold E, and
 /// what each costs.
 pub fn rbf(ctx: &Ctx<'_>) -> CliResult<Section> {
@@ -253,21 +192,28 @@ pub fn rbf(ctx: &Ctx<'_>) -> CliResult<Section> {
     let mut best: Option<(f64, f32, f32, Vec<f32>)> = None;
     for (ei, &e) in errors.iter().enumerate() {
         for (si, &sigma) in sigmas.iter().enumerate() {
-            let r = rbf_run(&hf, e, min_cell, max_cell, sigma)?;
+            let r = crate::cmd::rbf::approximate(
+                &hf,
+                &GridOptions::default()
+                    .with_max_error(e)
+                    .with_cells(min_cell, max_cell),
+                &RbfOptions::default().with_sigma(sigma),
+            )?;
+            let (cells, max_err, rms_err) = (r.cells.len(), r.max_diff, r.rms_diff);
             t.row(vec![
                 num(e.into(), 1),
                 num(sigma.into(), 2),
-                r.cells.to_string(),
+                cells.to_string(),
                 num(r.build_ms, 1),
                 num(r.eval_ms, 1),
-                num(r.max_err, 2),
-                num(r.rms_err, 3),
+                num(max_err, 2),
+                num(rms_err, 3),
             ]);
-            by_sigma[ei].points.push((f64::from(sigma), r.rms_err));
-            cost[si].points.push((r.build_ms + r.eval_ms, r.rms_err));
-            rows.push(json!({"max_error": e, "sigma": sigma, "cells": r.cells, "build_ms": r.build_ms, "eval_ms": r.eval_ms, "max_err": r.max_err, "rms_err": r.rms_err}));
-            if ei == 0 && best.as_ref().is_none_or(|b| r.rms_err < b.0) {
-                best = Some((r.rms_err, e, sigma, r.approx));
+            by_sigma[ei].points.push((f64::from(sigma), rms_err));
+            cost[si].points.push((r.build_ms + r.eval_ms, rms_err));
+            rows.push(json!({"max_error": e, "sigma": sigma, "cells": cells, "build_ms": r.build_ms, "eval_ms": r.eval_ms, "max_err": max_err, "rms_err": rms_err}));
+            if ei == 0 && best.as_ref().is_none_or(|b| rms_err < b.0) {
+                best = Some((rms_err, e, sigma, r.approx));
             }
         }
     }
