@@ -125,6 +125,23 @@ fn compare(r: &Render, reference: &Render) -> (f64, f64, f64, f64) {
     (mean, p95, max, differ as f64 / r.depth.len().max(1) as f64)
 }
 
+/// Per-pixel relative depth error of `r` against `reference`; a hit/miss disagreement counts 1.
+fn relative_error(r: &Render, reference: &Render) -> Vec<f32> {
+    r.depth
+        .iter()
+        .zip(&reference.depth)
+        .map(|(a, b)| {
+            if a.is_finite() && b.is_finite() {
+                (a - b).abs() / b
+            } else if a.is_finite() != b.is_finite() {
+                1.0
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
 fn depth_image(ctx: &Ctx<'_>, name: &str, r: &Render, w: u32, h: u32) -> CliResult {
     let finite: Vec<f32> = r.depth.iter().copied().filter(|d| d.is_finite()).collect();
     let lo = finite.iter().copied().fold(f32::INFINITY, f32::min);
@@ -292,20 +309,7 @@ pub fn rays(ctx: &Ctx<'_>) -> CliResult<Section> {
             file: "rays_depth_march.png".into(),
             caption: format!("Depth, march with {} samples", counts[0]),
         });
-        let err: Vec<f32> = r
-            .depth
-            .iter()
-            .zip(&reference.depth)
-            .map(|(a, b)| {
-                if a.is_finite() && b.is_finite() {
-                    (a - b).abs() / b
-                } else if a.is_finite() != b.is_finite() {
-                    1.0
-                } else {
-                    0.0
-                }
-            })
-            .collect();
+        let err = relative_error(&r, &reference);
         plot::image(
             &ctx.fig("rays_error_march.png"),
             w,
@@ -318,20 +322,7 @@ pub fn rays(ctx: &Ctx<'_>) -> CliResult<Section> {
         s.figures.push(Figure { file: "rays_error_march.png".into(), caption: format!("Relative depth error of the {}-sample march, viridis 0 to 5% (hit/miss disagreements at full scale)", counts[0]) });
     }
     if let Some(r) = shown {
-        let err: Vec<f32> = r
-            .depth
-            .iter()
-            .zip(&reference.depth)
-            .map(|(a, b)| {
-                if a.is_finite() && b.is_finite() {
-                    (a - b).abs() / b
-                } else if a.is_finite() != b.is_finite() {
-                    1.0
-                } else {
-                    0.0
-                }
-            })
-            .collect();
+        let err = relative_error(&r, &reference);
         plot::image(
             &ctx.fig("rays_error_nearest.png"),
             w,
