@@ -4,21 +4,21 @@
 //! [`relief_core::ray::RunDda`] yields, coloured short vs long with the intercept sequence
 //! `beta_j` above them — seed 001's figure 6 for the line `y = 17/41 x`.
 //!
-//! The cells and runs are the core's; this module only classifies what it draws. A run of the
-//! core's 4-connected line is the paper's 8-connected run extended at its beginning by one cell,
-//! except where the line passes exactly through a corner: the extension is recognised from the
-//! core's own cells (the run's first cell is 4-adjacent to the previous run's last one). The
+//! The cells, runs and intercepts are the core's ([`relief_core::ray::RunDda::with_intercepts`]);
+//! this module only classifies what it draws. A run of the core's 4-connected line is the
+//! paper's 8-connected run extended at its beginning by one cell, except where the line passes
+//! exactly through a corner ([`relief_core::ray::RunIntercept::extended`] says which). The
 //! paper's run length is the 4-connected length less the extension; with
 //! `r = floor(|major| / |minor|)` it is short (`r`) or long (`r + 1`); first and last runs
-//! shorter than `r` are cut by the segment's ends. The intercept `beta_j` is the line's minor
-//! coordinate at the entry face of the run's first 8-connected cell, less the run's row (paper
-//! eq. 2), printed as a fraction over `|major|` when the ray's start and direction are integers.
+//! shorter than `r` are cut by the segment's ends. The intercept `beta_j` (paper eq. 2) is the
+//! core's exact fixed-point value, printed as a fraction in lowest terms when its denominator is
+//! small (rays with integer start and direction: `10/41`, ...), with two decimals otherwise.
 
 use crate::canvas::{Canvas, LABEL};
 use crate::style::{rgba, BLACK, BLUE, GRID_GREY, ORANGE, REDDISH_PURPLE, SKY_BLUE};
 use crate::{DiagramError, DiagramOptions};
 use glam::DVec2;
-use relief_core::ray::{CellRun, GridLine};
+use relief_core::ray::{CellRun, GridLine, RunIntercept};
 use tiny_skia::Pixmap;
 
 /// A projected ray over a grid of cells, in grid units (cell `(cx, cy)` is the square
@@ -124,9 +124,13 @@ pub struct RunInfo {
     pub length8: u32,
     /// Short, long or truncated.
     pub kind: RunKind,
-    /// The intercept `beta_j` in `[0, 1)`.
+    /// The core's intercept `beta_j` ([`relief_core::ray::RunIntercept::to_f64`]): in
+    /// `[0, alpha)` after the first run; for the first run the line at the left face of the
+    /// start column, in `(-alpha, 1)` (negative when the line enters the start row between that
+    /// face and the start point).
     pub intercept: f64,
-    /// `beta_j` as printed: `n/d` for integer rays, two decimals otherwise.
+    /// `beta_j` as printed: `n/d` over the major component for integer rays (`10/41`), in lowest
+    /// terms for other small denominators, two decimals otherwise.
     pub intercept_label: String,
 }
 
@@ -140,29 +144,19 @@ pub struct RunInfo {
 /// ```
 pub fn runs(spec: &DdaSpec) -> Result<Vec<RunInfo>, DiagramError> {
     let line = spec.line()?;
-    let swap = spec.dir.y.abs() > spec.dir.x.abs();
-    let (major, minor) = if swap { (1, 0) } else { (0, 1) };
-    let (du, dv) = (spec.dir[major], spec.dir[minor]);
-    let (su, sv) = (spec.start[major], spec.start[minor]);
+    let (du, dv) = if spec.dir.y.abs() > spec.dir.x.abs() {
+        (spec.dir.y, spec.dir.x)
+    } else {
+        (spec.dir.x, spec.dir.y)
+    };
     let r = if dv != 0.0 {
         (du.abs() / dv.abs()).floor() as u32
     } else {
         0
     };
-    let exact = [su, sv, du, dv]
-        .iter()
-        .all(|v| v.fract() == 0.0 && v.abs() < 1e6)
-        && du != 0.0;
-    let all: Vec<CellRun> = line.runs().collect();
-    let n = all.len();
-    let mut out = Vec::with_capacity(n);
-    let mut prev_last: Option<[u32; 2]> = None;
-    for (j, run) in all.into_iter().enumerate() {
-        let first = run.start;
-        let extended = match prev_last {
-            Some(p) => p[major] == first[major],
-            None => false,
-        };
+    let mut out = Vec::new();
+    for (run, beta) in line.runs().with_intercepts() {
+        let extended = beta.extended();
         // A last run cut right after its extension cell has no 8-connected cell: length 0.
         let length8 = run.len - u32::from(extended);
         let kind = if dv == 0.0 {
@@ -175,45 +169,35 @@ pub fn runs(spec: &DdaSpec) -> Result<Vec<RunInfo>, DiagramError> {
             // Only the first and last runs can be shorter: cut by the segment's ends.
             RunKind::Truncated
         };
-        // Entry face, along the direction of travel, of the first 8-connected cell (which may
-        // lie past the segment's end); for the first run, the start point itself.
-        let m8 = i64::from(first[major]) + if extended { i64::from(run.step) } else { 0 };
-        let face = if j == 0 {
-            su
-        } else if du >= 0.0 {
-            m8 as f64
-        } else {
-            m8 as f64 + 1.0
-        };
-        let row = f64::from(first[minor]);
-        let v = sv + dv / du * (face - su);
-        let beta = if dv >= 0.0 { v - row } else { row + 1.0 - v };
-        let label = if exact {
-            let den = du.abs() as i128;
-            let vv = (sv as i128) * den
-                + (dv as i128) * (du.signum() as i128) * (face as i128 - su as i128);
-            let num = if dv >= 0.0 {
-                vv - (row as i128) * den
-            } else {
-                (row as i128 + 1) * den - vv
-            };
-            format!("{num}/{den}")
-        } else {
-            format!("{beta:.2}")
-        };
-        if let Some(last) = run.cell(run.len - 1) {
-            prev_last = Some(last);
-        }
         out.push(RunInfo {
             run,
             extended,
             length8,
             kind,
-            intercept: beta,
-            intercept_label: label,
+            intercept: beta.to_f64(),
+            intercept_label: intercept_label(beta, du),
         });
     }
     Ok(out)
+}
+
+/// `n/d` over the ray's major component when that is a whole number that the reduced
+/// denominator divides (seed 001 writes figure 6's intercepts over 41), else `n/d` in lowest
+/// terms when `d` is small, else two decimals.
+fn intercept_label(beta: RunIntercept, major: f64) -> String {
+    let (n, d) = beta.reduced();
+    let m = major.abs();
+    if m.fract() == 0.0 && (1.0..=9999.0).contains(&m) {
+        let m = m as i64;
+        if m % d == 0 {
+            return format!("{}/{m}", n * (m / d));
+        }
+    }
+    if d <= 9999 {
+        format!("{n}/{d}")
+    } else {
+        format!("{:.2}", beta.to_f64())
+    }
 }
 
 fn kind_colour(k: RunKind) -> [u8; 3] {

@@ -454,10 +454,29 @@ fn intercepts_and_lengths_are_consistent_in_every_octant() {
             dx.abs()
         };
         let rr = (major / minor).floor() as u32;
+        let alpha = minor / major;
+        let (ku, kv) = if dx.abs() >= dy.abs() { (0, 1) } else { (1, 0) };
+        let (su, sv, du, dv) = (start[ku], start[kv], spec.dir[ku], spec.dir[kv]);
         for (j, x) in r.iter().enumerate() {
+            // The core's intercept (seed 001, eq. 2): the line's minor coordinate at the left
+            // face (along the direction of travel) of the run's first 8-connected cell, less its
+            // row, in the folded frame; for the first run at the start cell's face, so it may be
+            // negative there.
+            let range = if j == 0 { -alpha..1.0 } else { 0.0..alpha };
+            assert!(range.contains(&x.intercept), "{dx},{dy} run {j}: {x:?}");
+            let c8 = x.run.cell(u32::from(x.extended)).unwrap_or_else(|| {
+                let a = x.run.start;
+                let mut c = [a[0] as i64, a[1] as i64];
+                c[ku] += i64::from(x.run.step);
+                [c[0] as u32, c[1] as u32]
+            });
+            let face = f64::from(c8[ku]) + if du >= 0.0 { 0.0 } else { 1.0 };
+            let v = sv + dv / du * (face - su);
+            let row = f64::from(c8[kv]);
+            let beta = if dv >= 0.0 { v - row } else { row + 1.0 - v };
             assert!(
-                (0.0..1.0).contains(&x.intercept),
-                "{dx},{dy} run {j}: {x:?}"
+                (beta - x.intercept).abs() < 1e-5,
+                "{dx},{dy} run {j}: {x:?} vs {beta}"
             );
             let inner = j > 0 && j + 1 < r.len();
             if inner {

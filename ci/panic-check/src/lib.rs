@@ -243,7 +243,13 @@ pub extern "C" fn pc_grid_line(s: &[f64; 2], d: &[f64; 2], e: &[f64; 2], cells: 
         n.wrapping_add(u64::from(r.len))
             .wrapping_add(r.cells().count() as u64)
     });
-    a ^ b ^ line.step_bound()
+    let c = line.runs().with_intercepts().fold(0u64, |n, (r, beta)| {
+        let (num, den) = beta.reduced();
+        n.wrapping_add(u64::from(r.len))
+            .wrapping_add(num as u64 ^ den as u64 ^ beta.numerator() as u64)
+            .wrapping_add(beta.to_f64().to_bits() ^ u64::from(beta.extended()))
+    });
+    a ^ b ^ c ^ line.step_bound()
 }
 
 // ---- Refinement (core::refine) ----

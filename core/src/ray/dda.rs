@@ -514,3 +514,253 @@ impl Iterator for RunDda {
         Some(self.unfold_run(f))
     }
 }
+
+/// The intercept `beta_j` of a run (seed 001, section 2, eq. 2: `beta_j = alpha x_j - y_j`, the
+/// fractional minor coordinate of the line where it meets the left face of the run's first
+/// 8-connected cell), kept exactly as the run DDA holds it: a numerator over one row
+/// `Q = DX 2^21` (module docs), in the folded frame where the slope is `0 <= alpha <= 1`.
+///
+/// - Runs after the first: `beta_j` is in `[0, alpha)`. When it is `0` the line passes exactly
+///   through the corner below the run's first cell and the run has no 4-connected extension;
+///   otherwise the run's first cell (as [`RunDda`] yields it) is the extension and its first
+///   8-connected cell is the next one.
+/// - The first run: the intercept at the left face of the start column, relative to the start
+///   row (the paper's `beta` of a start point `(x_0, y_0 + beta)` on a left face). For a start
+///   inside a column it lies in `(-alpha, 1)`: negative when the line enters the start row
+///   between the column's left face and the start point.
+///
+/// ```
+/// use relief_core::ray::GridLine;
+/// use glam::DVec2;
+/// // Seed 001, figure 6: y = 17/41 x from the origin.
+/// let line = GridLine::new(DVec2::ZERO, DVec2::new(41.0, 17.0), DVec2::new(41.0, 17.0), [41, 17]).unwrap();
+/// let betas: Vec<(i64, i64)> = line.runs().with_intercepts().map(|(_, b)| b.reduced()).take(4).collect();
+/// assert_eq!(betas, vec![(0, 1), (10, 41), (3, 41), (13, 41)]);
+/// let (run, beta) = line.runs().with_intercepts().nth(1).unwrap();
+/// assert!(beta.extended() && run.len == 3); // 8-connected short run of 2 plus its extension
+/// assert!((beta.to_f64() - 10.0 / 41.0).abs() < 1e-15);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunIntercept {
+    numerator: i64,
+    denominator: i64,
+    extended: bool,
+}
+
+impl RunIntercept {
+    /// The exact numerator, in units of `1 / denominator()` of a cell.
+    ///
+    /// ```
+    /// use relief_core::ray::GridLine;
+    /// use glam::DVec2;
+    /// let line = GridLine::new(DVec2::ZERO, DVec2::new(4.0, 1.0), DVec2::splat(8.0), [8, 8]).unwrap();
+    /// let (_, b) = line.runs().with_intercepts().next().unwrap();
+    /// assert_eq!(b.numerator(), 0); // the start point lies on a corner
+    /// ```
+    #[must_use]
+    pub fn numerator(self) -> i64 {
+        self.numerator
+    }
+
+    /// One row of the fixed-point line, `Q = DX 2^21` with `DX` the major direction component
+    /// scaled into `[2^39, 2^40]`; always positive.
+    ///
+    /// ```
+    /// use relief_core::ray::GridLine;
+    /// use glam::DVec2;
+    /// let line = GridLine::new(DVec2::ZERO, DVec2::new(4.0, 1.0), DVec2::splat(8.0), [8, 8]).unwrap();
+    /// let (_, b) = line.runs().with_intercepts().next().unwrap();
+    /// assert_eq!(b.denominator(), 1 << 60); // DX = 2^39 for a major component 4
+    /// ```
+    #[must_use]
+    pub fn denominator(self) -> i64 {
+        self.denominator
+    }
+
+    /// Whether the run begins with its 4-connected extension cell (never for the first run).
+    ///
+    /// ```
+    /// use relief_core::ray::GridLine;
+    /// use glam::DVec2;
+    /// // Slope 1/4 from a corner: every later run starts exactly at a corner, no extension.
+    /// let line = GridLine::new(DVec2::ZERO, DVec2::new(4.0, 1.0), DVec2::splat(8.0), [8, 8]).unwrap();
+    /// assert!(line.runs().with_intercepts().all(|(_, b)| !b.extended()));
+    /// ```
+    #[must_use]
+    pub fn extended(self) -> bool {
+        self.extended
+    }
+
+    /// The intercept as `f64` (numerator and denominator each rounded to `f64`, then divided).
+    ///
+    /// ```
+    /// use relief_core::ray::GridLine;
+    /// use glam::DVec2;
+    /// let line = GridLine::new(DVec2::new(0.0, 0.25), DVec2::new(8.0, 1.0), DVec2::splat(8.0), [8, 8]).unwrap();
+    /// let (_, b) = line.runs().with_intercepts().next().unwrap();
+    /// assert_eq!(b.to_f64(), 0.25);
+    /// ```
+    #[must_use]
+    pub fn to_f64(self) -> f64 {
+        self.numerator as f64 / self.denominator as f64
+    }
+
+    /// The intercept as a fraction in lowest terms `(numerator, denominator)`, denominator
+    /// positive; `(0, 1)` for zero. For rays whose start and direction are small integers this
+    /// is the paper's fraction (`10/41` for figure 6's second run).
+    ///
+    /// ```
+    /// use relief_core::ray::GridLine;
+    /// use glam::DVec2;
+    /// let line = GridLine::new(DVec2::new(0.0, 0.5), DVec2::new(3.0, 1.0), DVec2::splat(8.0), [8, 8]).unwrap();
+    /// let (_, b) = line.runs().with_intercepts().next().unwrap();
+    /// assert_eq!(b.reduced(), (1, 2));
+    /// ```
+    #[must_use]
+    pub fn reduced(self) -> (i64, i64) {
+        let (mut x, mut y) = (
+            self.numerator.unsigned_abs(),
+            self.denominator.unsigned_abs(),
+        );
+        // Euclid on u64 takes at most 93 steps (Fibonacci worst case).
+        for _ in 0..100 {
+            match x.checked_rem(y) {
+                Some(r) => {
+                    x = y;
+                    y = r;
+                }
+                None => break,
+            }
+        }
+        // x is now the gcd (or 0 when both are 0).
+        let g = x.max(1);
+        let n = (self.numerator.unsigned_abs() / g) as i64;
+        let d = (self.denominator.unsigned_abs() / g).max(1) as i64;
+        (if self.numerator < 0 { -n } else { n }, d)
+    }
+}
+
+impl RunDda {
+    /// The runs together with their intercepts `beta_j` ([`RunIntercept`]): the same runs as
+    /// iterating `self`, read from the DDA's own state before each step (the plain iterator is
+    /// untouched, so traversal pays nothing for this).
+    ///
+    /// ```
+    /// use relief_core::ray::GridLine;
+    /// use glam::DVec2;
+    /// let line = GridLine::new(DVec2::new(0.3, 0.7), DVec2::new(5.0, 2.0), DVec2::splat(16.0), [16, 16]).unwrap();
+    /// let plain: Vec<_> = line.runs().collect();
+    /// let with: Vec<_> = line.runs().with_intercepts().map(|(r, _)| r).collect();
+    /// assert_eq!(plain, with);
+    /// ```
+    #[must_use]
+    pub fn with_intercepts(self) -> RunIntercepts {
+        RunIntercepts { dda: self }
+    }
+}
+
+/// Iterator of [`RunDda::with_intercepts`]: each [`CellRun`] with its [`RunIntercept`].
+///
+/// ```
+/// use relief_core::ray::GridLine;
+/// use glam::DVec2;
+/// let line = GridLine::new(DVec2::ZERO, DVec2::new(41.0, 17.0), DVec2::new(41.0, 17.0), [41, 17]).unwrap();
+/// // Every later intercept is below the slope alpha = 17/41 (seed 001).
+/// assert!(line.runs().with_intercepts().skip(1).all(|(_, b)| b.to_f64() < 17.0 / 41.0));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RunIntercepts {
+    dda: RunDda,
+}
+
+impl Iterator for RunIntercepts {
+    type Item = (CellRun, RunIntercept);
+    fn next(&mut self) -> Option<(CellRun, RunIntercept)> {
+        let d = &self.dda;
+        let q = d.line.q;
+        // After the first run the state intercept `b` is at the left face of the run's first
+        // (4-connected) column, in (-A, 0]: 0 is a corner crossing, otherwise the line meets
+        // the next column's left face at b + A, inside the row.
+        let (numerator, extended) = if d.first || d.b == 0 || d.line.a == 0 {
+            (d.b, false)
+        } else {
+            (d.b.saturating_add(d.line.a), true)
+        };
+        let beta = RunIntercept {
+            numerator,
+            denominator: q.max(1),
+            extended,
+        };
+        let f = self.dda.next_folded()?;
+        Some((self.dda.unfold_run(f), beta))
+    }
+}
+
+#[cfg(test)]
+mod intercept_tests {
+    use super::GridLine;
+    use glam::DVec2;
+
+    fn reduce(n: i128, d: i128) -> (i64, i64) {
+        let (mut a, mut b) = (n.abs(), d.abs());
+        while b != 0 {
+            (a, b) = (b, a % b);
+        }
+        let g = a.max(1);
+        ((n / g) as i64, (d / g) as i64)
+    }
+
+    /// Every run's intercept equals the exact rational one (seed 001, eq. 2) in every octant,
+    /// for starts on eighths of a cell and small integer directions; later runs lie in
+    /// `[0, alpha)`, and `extended` matches the cells (first cell 4-adjacent to the last one).
+    #[test]
+    fn intercepts_match_rational_reference() {
+        let mut checked = 0usize;
+        for (du, dv) in (1i64..=9).flat_map(|a| (1..=a).map(move |b| (a, b))) {
+            for signs in 0..8u32 {
+                let (sx, sy, swap) = (signs & 1 == 0, signs & 2 == 0, signs & 4 != 0);
+                if swap && du == dv {
+                    continue; // the core folds |x| == |y| with x major
+                }
+                let (mx, my) = (if sx { du } else { -du }, if sy { dv } else { -dv });
+                let dir = if swap {
+                    DVec2::new(my as f64, mx as f64)
+                } else {
+                    DVec2::new(mx as f64, my as f64)
+                };
+                for (ex, ey) in [(0i64, 0i64), (3, 5), (4, 0), (7, 1)] {
+                    let start8 = [8 * 20 + ex, 8 * 19 + ey];
+                    let start = DVec2::new(start8[0] as f64 / 8.0, start8[1] as f64 / 8.0);
+                    let line = GridLine::new(start, dir, start + dir * 100.0, [40, 40]).unwrap();
+                    let (ku, kv) = if swap { (1, 0) } else { (0, 1) };
+                    let (pu, pv) = (dir[ku] > 0.0, dir[kv] > 0.0);
+                    let fold = |c: i64, pos: bool| if pos { c } else { -c - 1 };
+                    let fp = |p: i64, pos: bool| if pos { p } else { -p };
+                    let (su, sv) = (fp(start8[ku], pu), fp(start8[kv], pv));
+                    let mut prev_last: Option<[u32; 2]> = None;
+                    for (j, (run, beta)) in line.runs().with_intercepts().enumerate() {
+                        let first = run.start;
+                        let adjacent = prev_last.is_some_and(|p| p[ku] == first[ku]);
+                        assert_eq!(beta.extended(), adjacent, "run {j} of {dir} from {start}");
+                        let face = fold(i64::from(first[ku]), pu) + i64::from(beta.extended());
+                        let row = fold(i64::from(first[kv]), pv);
+                        // 8 du beta = 8 du v(face) - 8 du row, v(u) = sv/8 + dv/du (u - su/8).
+                        let num = i128::from(sv * du + dv * (8 * face - su) - 8 * du * row);
+                        let want = reduce(num, i128::from(8 * du));
+                        assert_eq!(beta.reduced(), want, "run {j} of {dir} from {start}");
+                        let f = beta.to_f64();
+                        assert!((f - want.0 as f64 / want.1 as f64).abs() < 1e-12);
+                        if j > 0 {
+                            assert!(f >= 0.0 && f < dv as f64 / du as f64, "run {j}: {f}");
+                        } else {
+                            assert!(f > -(dv as f64 / du as f64) && f < 1.0);
+                        }
+                        prev_last = run.cell(run.len - 1);
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 10_000, "{checked}");
+    }
+}

@@ -51,9 +51,9 @@ mod run;
 #[cfg(test)]
 mod tests;
 
-pub use dda::{CellDda, CellRun, GridLine, RunDda};
+pub use dda::{CellDda, CellRun, GridLine, RunDda, RunIntercept, RunIntercepts};
 pub use march::{MarchOptions, MarchTrace};
-pub use maxmip::MaxMip;
+pub use maxmip::{MaxMip, PACKET_LANES};
 pub use run::RunAccel;
 
 use crate::{Error, Surface, Terrain};
