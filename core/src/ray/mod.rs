@@ -53,7 +53,7 @@ mod tests;
 
 pub use dda::{CellDda, CellRun, GridLine, RunDda, RunIntercept, RunIntercepts};
 pub use march::{MarchOptions, MarchTrace};
-pub use maxmip::{MaxMip, PACKET_LANES};
+pub use maxmip::MaxMip;
 pub use run::RunAccel;
 
 use crate::{Error, Surface, Terrain};
