@@ -182,8 +182,51 @@ fn gpu_and_cpu_depth_agree_and_json_lists_the_passes() {
         String::from_utf8_lossy(&out.stderr)
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(pass_names(&v, "passes"), ["silhouette"]);
+    assert_eq!(
+        pass_names(&v, "passes"),
+        ["silhouette_map", "silhouette_tree", "silhouette_trace"]
+    );
+    // 1025 rows padded to 4^6: six packed tree texels and two silhouette-map texels per pixel.
+    assert_eq!(v["reads_per_pixel"], 8);
     assert!(v["hits"].as_u64().unwrap() > 160 * 120 / 4);
+    for j in [&gpu, &lit, &mesh, &v] {
+        assert!(j["timing"] == "gpu" || j["timing"] == "wall", "{j}");
+    }
+    assert_eq!(cpu["timing"], "wall");
+    assert_eq!(gpu["reads_per_pixel"], serde_json::Value::Null);
+    // The RBF cascade ray cast (seed 002): its four passes, and a depth image close to the
+    // exact ray cast of the DEM it approximates.
+    let Some((cas, cas_d)) = render(
+        dir.path(),
+        "cascades",
+        &["--method", "cascades", "--cascade-resolution", "256"],
+    ) else {
+        return;
+    };
+    assert_eq!(pass_names(&cas, "setup_passes"), Vec::<String>::new());
+    assert_eq!(
+        pass_names(&cas, "passes"),
+        [
+            "rbf_discretize",
+            "cascade_maxmip",
+            "cascade_raycast",
+            "cascade_blend"
+        ]
+    );
+    let close = cas_d
+        .iter()
+        .zip(&gd)
+        .filter(|(a, e)| (a.is_infinite() && e.is_infinite()) || (*a - *e).abs() <= 0.05 * e.abs())
+        .count();
+    eprintln!(
+        "cascades: {close} of {} pixels within 5% of the exact depth",
+        gd.len()
+    );
+    assert!(
+        close as f64 >= 0.9 * gd.len() as f64,
+        "{close} of {}",
+        gd.len()
+    );
 }
 
 #[test]
@@ -202,6 +245,15 @@ fn no_adapter_unknown_effects_and_silhouette_are_one_line_errors() {
     let mut sil = args.clone();
     sil.extend_from_slice(&["--method", "silhouette", "--backend", "cpu"]);
     assert_one_line_error(&relief(&sil, &[]), "need --backend gpu");
+    let mut cas = args.clone();
+    cas.extend_from_slice(&["--method", "cascades", "--backend", "cpu"]);
+    assert_one_line_error(&relief(&cas, &[]), "need --backend gpu");
+    let mut cas_fog = args.clone();
+    cas_fog.extend_from_slice(&["--method", "cascades", "--effects", "fog"]);
+    let out = relief(&cas_fog, &[]);
+    if !String::from_utf8_lossy(&out.stderr).contains("no GPU adapter") {
+        assert_one_line_error(&out, "take only the depth output effect");
+    }
     let mut cpu = args.clone();
     cpu.extend_from_slice(&["--backend", "cpu", "--effects", "water"]);
     assert_one_line_error(&relief(&cpu, &[]), "needs --backend gpu");

@@ -17,7 +17,7 @@
 //! | mesh drawing with reversed-Z, strips, geomorphing, depth output (render) | [`mesh`] | 003 (sec. 3.7), 004 (sec. 4.5, 4.6.3, 5.1) |
 //! | silhouette partitioning: map, packed tree, fixed-cost trace (compute) | [`silhouette`] | 000 |
 //! | RBF cascade discretization (compute) | [`rbf`] | 002 (sec. 4) |
-//! | cascade ray cast: a max-mip per cascade, overlap hits blended (compute) | [`cascade`] | 002 (sec. 5) |
+//! | cascade ray cast: a max-mip per cascade, overlap hits blended with weights computed on the GPU (compute) | [`cascade`] | 002 (sec. 5) |
 //! | effects on demand: a [`Scene`] and the passes its frame needs | [`scene`] | 003 (sec. 4, table 1) |
 //!
 //! Conventions are those of `relief-core` (CONVENTIONS.md): camera rays from
@@ -56,7 +56,7 @@ mod util;
 pub use mesh::{DepthTarget, MeshPass, ResolvePass};
 pub use normals::NormalPass;
 pub use raycast::{Method, RayCastPass, RayOutputs};
-pub use scene::{Effect, FrameImage, PassName, PassTiming, Renderer, Scene};
+pub use scene::{Clock, Effect, FrameImage, PassName, PassTiming, Renderer, Scene};
 pub use terrain::GpuTerrain;
 pub use util::read_buffer;
 
@@ -125,7 +125,9 @@ pub struct Gpu {
 /// `WGPU_POWER_PREF`, read by [`wgpu::util::initialize_adapter_from_env_or_default`] and
 /// [`wgpu::InstanceDescriptor::new_without_display_handle_from_env`]); on machines without a GPU,
 /// Mesa's lavapipe Vulkan driver works. [`Error::NoAdapter`] when no adapter exists at all.
-/// The device gets the adapter's own limits.
+/// The device gets the adapter's own limits, and [`wgpu::Features::TIMESTAMP_QUERY`] with
+/// [`wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS`] when the adapter has both (for GPU pass
+/// times, [`scene::Clock`]).
 ///
 /// ```no_run
 /// match relief_wgpu::headless() {
@@ -141,9 +143,15 @@ pub fn headless() -> Result<Gpu, Error> {
     ))
     .map_err(|e| Error::NoAdapter(e.to_string()))?;
     let info = adapter.get_info();
+    let timing = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+    let features = if adapter.features().contains(timing) {
+        timing
+    } else {
+        wgpu::Features::empty()
+    };
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("relief-wgpu headless"),
-        required_features: wgpu::Features::empty(),
+        required_features: features,
         required_limits: adapter.limits(),
         ..Default::default()
     }))

@@ -36,9 +36,47 @@ pub enum Method {
         /// Binary refinement steps (at most 64).
         refine: u32,
     },
+    /// Silhouette partitioning (seed 000, [`crate::silhouette`]): approximate, a fixed number
+    /// of texture reads per pixel ([`crate::silhouette::reads_per_pixel`]); needs the whole
+    /// terrain in front of the camera. A [`crate::Scene`] method only ([`RayCastPass`] rejects
+    /// it).
+    Silhouette,
+    /// The RBF cascade ray cast (seed 002, [`crate::cascade`]): the terrain approximated by
+    /// truncated Gaussians on an adaptive grid, discretized every frame into three cascades of
+    /// `resolution x resolution` texels, each traced with its own maximum mipmap, overlap hits
+    /// blended. A [`crate::Scene`] method only ([`RayCastPass`] rejects it).
+    Cascades {
+        /// Texels per side of each cascade (at least 2).
+        resolution: u32,
+    },
 }
 
 impl Method {
+    /// The cascade ray cast with 512 texels per cascade side.
+    ///
+    /// ```
+    /// assert_eq!(relief_wgpu::Method::cascades(), relief_wgpu::Method::Cascades { resolution: 512 });
+    /// ```
+    #[must_use]
+    pub fn cascades() -> Method {
+        Method::Cascades { resolution: 512 }
+    }
+
+    /// Its name on the command line (`relief render --method`).
+    ///
+    /// ```
+    /// assert_eq!(relief_wgpu::Method::Silhouette.name(), "silhouette");
+    /// ```
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::MaxMip => "maxmip",
+            Method::March { .. } => "march",
+            Method::Silhouette => "silhouette",
+            Method::Cascades { .. } => "cascades",
+        }
+    }
+
     /// The march with [`relief_core::ray::MarchOptions`]' defaults (256 samples, 8 steps).
     ///
     /// ```
@@ -336,6 +374,11 @@ impl RayCastPass {
         if effects.detail && detail.is_none() {
             return Err(Error::Unsupported("the detail effect needs a detail map"));
         }
+        if matches!(method, Method::Silhouette | Method::Cascades { .. }) {
+            return Err(Error::Unsupported(
+                "RayCastPass casts max-mip and march rays only (silhouette and cascades are Scene methods)",
+            ));
+        }
         if let Method::March { samples, refine } = method {
             if samples == 0 || refine > 64 {
                 return Err(Error::Unsupported(
@@ -431,12 +474,27 @@ impl RayCastPass {
         camera: &Camera,
         shading: &Shading,
     ) -> Result<(), Error> {
+        self.encode_scaled(queue, encoder, terrain, terrain.scale(), camera, shading)
+    }
+
+    /// [`RayCastPass::encode`] with the terrain's sample spacing and offset taken from `scale`
+    /// instead of [`GpuTerrain::scale`] (a cascade whose texel spacing changes between
+    /// frames).
+    pub(crate) fn encode_scaled(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        terrain: &GpuTerrain,
+        scale: relief_core::Scale,
+        camera: &Camera,
+        shading: &Shading,
+    ) -> Result<(), Error> {
         if camera.width != self.out.width || camera.height != self.out.height {
             return Err(Error::Unsupported(
                 "camera image size differs from the pass's",
             ));
         }
-        let p = self.params(terrain, camera, shading);
+        let p = self.params(terrain, scale, camera, shading);
         queue.write_buffer(&self.params, 0, bytemuck::cast_slice(&p));
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("relief raycast"),
@@ -451,10 +509,10 @@ impl RayCastPass {
     fn params(
         &self,
         terrain: &GpuTerrain,
+        s: relief_core::Scale,
         camera: &Camera,
         shading: &Shading,
     ) -> [u32; PARAM_WORDS] {
-        let s = terrain.scale();
         let (f, r, u) = camera.basis();
         let e = camera.eye.as_dvec3();
         let eye = [
@@ -467,8 +525,8 @@ impl RayCastPass {
         let sun = shading.sun.normalize_or(Vec3::Z);
         let aspect = camera.width as f32 / camera.height as f32;
         let (samples, refine) = match self.method {
-            Method::MaxMip => (1, 0),
             Method::March { samples, refine } => (samples, refine),
+            _ => (1, 0),
         };
         let fl: [[f32; 4]; 10] = [
             [eye[0], eye[1], eye[2], 0.0],

@@ -3,7 +3,8 @@
 //! (2022), section 4, last paragraph: the adaptive-grid truncated Gaussian RBF approximation
 //! (eq. 1-2) evaluated at the centre of every visible texel of a cascade, on the GPU. The CPU
 //! reference is [`relief_core::rbf::discretize`]; this pass writes the same values (the
-//! blending weights are left to the CPU's [`relief_core::rbf::Cascade::blend_weight`]).
+//! blending weights are computed where they are used, in the cascade ray cast's blend shader,
+//! [`crate::cascade`]).
 
 use crate::util::{self, bind_buffers, compute_pipeline, groups, storage_entry, uniform_entry};
 use crate::Error;
@@ -118,20 +119,68 @@ impl RbfPass {
         })
     }
 
-    /// Records the discretization of `cascade` (visible texels from `mask`, `resolution^2`
-    /// bytes as [`Cascade::mask`] writes them) and returns the values buffer
-    /// (`resolution^2` `f32`, row-major, `invisible` where the mask is 0; the CPU writes 0).
-    /// [`Error::Unsupported`] for a short mask.
-    pub fn encode(
+    /// Buffers for discretizing cascades of `resolution^2` texels again and again (one per
+    /// cascade of a frame): the mask, the values and the parameters, bound once.
+    /// [`Error::Unsupported`] for a resolution of 0 or beyond the device's storage binding size.
+    ///
+    /// ```no_run
+    /// # fn demo(gpu: &relief_wgpu::Gpu, pass: &relief_wgpu::rbf::RbfPass) -> Result<(), relief_wgpu::Error> {
+    /// let target = pass.target(&gpu.device, 256)?;
+    /// assert_eq!(target.resolution(), 256);
+    /// # Ok(()) }
+    /// ```
+    pub fn target(&self, device: &wgpu::Device, resolution: u32) -> Result<RbfTarget, Error> {
+        let n = u64::from(resolution) * u64::from(resolution);
+        if n == 0 || n * 4 > device.limits().max_storage_buffer_binding_size {
+            return Err(Error::Unsupported(
+                "cascade resolution is 0 or beyond the device's storage buffer binding size",
+            ));
+        }
+        let mask = util::storage(device, "relief rbf mask", n * 4);
+        let values = util::storage(device, "relief rbf values", n * 4);
+        let params = util::uniform(device, "relief rbf params", 48);
+        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("relief rbf"),
+            layout: &self.layout,
+            entries: &bind_buffers(&[
+                &params,
+                &self.cells,
+                &self.index,
+                &self.offsets,
+                &self.entries,
+                &mask,
+                &values,
+            ]),
+        });
+        Ok(RbfTarget {
+            resolution,
+            mask,
+            values,
+            params,
+            group,
+        })
+    }
+
+    /// Writes `cascade`'s parameters and visible-texel `mask` (`resolution^2` bytes as
+    /// [`Cascade::mask`] writes them) into `target` (queue writes) and records the
+    /// discretization: `target.values()` gets the approximation at every visible texel centre
+    /// and `invisible` elsewhere (the CPU writes 0). [`Error::Unsupported`] for a short mask, a
+    /// cascade of another resolution than the target's or an origin beyond `i32`.
+    pub fn encode_into(
         &self,
-        device: &wgpu::Device,
         queue: &wgpu::Queue,
         encoder: &mut wgpu::CommandEncoder,
+        target: &RbfTarget,
         cascade: &Cascade,
         mask: &[u8],
         invisible: f32,
-    ) -> Result<wgpu::Buffer, Error> {
+    ) -> Result<(), Error> {
         let res = cascade.resolution;
+        if res != target.resolution {
+            return Err(Error::Unsupported(
+                "cascade resolution differs from the target's",
+            ));
+        }
         let n = res as usize * res as usize;
         let Some(mask) = mask.get(..n) else {
             return Err(Error::Unsupported("mask shorter than resolution^2"));
@@ -143,10 +192,7 @@ impl RbfPass {
                 .map_err(|_| Error::Unsupported("cascade origin beyond i32"))?,
         ];
         let mask_u32: Vec<u32> = mask.iter().map(|&m| u32::from(m != 0)).collect();
-        let mask_buf =
-            util::storage_init(device, "relief rbf mask", bytemuck::cast_slice(&mask_u32));
-        let values = util::storage(device, "relief rbf values", n as u64 * 4);
-        let params = util::uniform(device, "relief rbf params", 48);
+        queue.write_buffer(&target.mask, 0, bytemuck::cast_slice(&mask_u32));
         let remainder = 1.0 - gaussian_weight(0.0, 1.0);
         let mut p = [0u32; 12];
         p[..4].copy_from_slice(&[self.width, self.height, res, 0]);
@@ -156,29 +202,33 @@ impl RbfPass {
         p[9] = self.sigma.to_bits();
         p[10] = remainder.to_bits();
         p[11] = invisible.to_bits();
-        queue.write_buffer(&params, 0, bytemuck::cast_slice(&p));
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("relief rbf"),
-            layout: &self.layout,
-            entries: &bind_buffers(&[
-                &params,
-                &self.cells,
-                &self.index,
-                &self.offsets,
-                &self.entries,
-                &mask_buf,
-                &values,
-            ]),
-        });
+        queue.write_buffer(&target.params, 0, bytemuck::cast_slice(&p));
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("relief rbf discretize"),
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &group, &[]);
+        pass.set_bind_group(0, &target.group, &[]);
         pass.dispatch_workgroups(groups(res, 8), groups(res, 8), 1);
-        drop(pass);
-        Ok(values)
+        Ok(())
+    }
+
+    /// Records the discretization of `cascade` into fresh buffers ([`RbfPass::target`] then
+    /// [`RbfPass::encode_into`]) and returns the values buffer (`resolution^2` `f32`,
+    /// row-major, `invisible` where the mask is 0; the CPU writes 0). [`Error::Unsupported`]
+    /// for a short mask.
+    pub fn encode(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        cascade: &Cascade,
+        mask: &[u8],
+        invisible: f32,
+    ) -> Result<wgpu::Buffer, Error> {
+        let target = self.target(device, cascade.resolution)?;
+        self.encode_into(queue, encoder, &target, cascade, mask, invisible)?;
+        Ok(target.values)
     }
 
     /// Discretizes `cascade` and reads the values back (one submission; waits for the GPU).
@@ -194,5 +244,47 @@ impl RbfPass {
         queue.submit([enc.finish()]);
         let n = cascade.resolution as u64 * cascade.resolution as u64 * 4;
         Ok(util::f32s(&util::read_buffer(device, queue, &values, n)?))
+    }
+}
+
+/// Buffers one cascade is discretized into, reused frame after frame ([`RbfPass::target`]).
+#[derive(Debug)]
+pub struct RbfTarget {
+    resolution: u32,
+    mask: wgpu::Buffer,
+    values: wgpu::Buffer,
+    params: wgpu::Buffer,
+    group: wgpu::BindGroup,
+}
+
+impl RbfTarget {
+    /// Texels per side.
+    ///
+    /// ```no_run
+    /// # fn demo(t: &relief_wgpu::rbf::RbfTarget) { let _ = t.resolution(); }
+    /// ```
+    #[must_use]
+    pub fn resolution(&self) -> u32 {
+        self.resolution
+    }
+
+    /// The discretized values (`resolution^2` `f32`, row-major).
+    ///
+    /// ```no_run
+    /// # fn demo(t: &relief_wgpu::rbf::RbfTarget) { let _ = t.values().size(); }
+    /// ```
+    #[must_use]
+    pub fn values(&self) -> &wgpu::Buffer {
+        &self.values
+    }
+
+    /// The visible-texel mask as the GPU sees it (`resolution^2` `u32`, 1 visible, 0 not).
+    ///
+    /// ```no_run
+    /// # fn demo(t: &relief_wgpu::rbf::RbfTarget) { let _ = t.mask().size(); }
+    /// ```
+    #[must_use]
+    pub fn mask(&self) -> &wgpu::Buffer {
+        &self.mask
     }
 }

@@ -17,11 +17,36 @@
 //! | [`Effect::Fog`] | none | `FOG` |
 //! | [`Effect::Water`] | none | `WATER` (plane), `WATER_SURFACE` (a heightfield, e.g. an RBF approximation) |
 //! | [`Effect::DepthOutput`] | `depth_resolve` per frame | none |
+//!
+//! The method picks the frame's core passes:
+//!
+//! | method | setup passes | passes per frame | effects it takes |
+//! |---|---|---|---|
+//! | [`Method::MaxMip`] | `maxmip_build` (+ `normal_map` when lit) | `raycast` | all |
+//! | [`Method::March`] | (`normal_map` when lit) | `raycast` | all |
+//! | [`Method::Silhouette`] (seed 000) | none | `silhouette_map`, `silhouette_tree`, `silhouette_trace` | depth output |
+//! | [`Method::Cascades`] (seed 002 sec. 5) | none (the RBF approximation is built on the CPU by [`Renderer::new`]) | `rbf_discretize`, `cascade_maxmip`, `cascade_raycast`, `cascade_blend` | depth output |
+//!
+//! Silhouette partitioning reads a fixed number of texels per pixel,
+//! [`crate::silhouette::reads_per_pixel`] (8 for a 1025 x 1025 grid).
+//!
+//! Pass times ([`Renderer::render_profiled`]) come from GPU timestamp queries written between
+//! the passes of one submission when the device has [`wgpu::Features::TIMESTAMP_QUERY`] and
+//! [`wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS`] ([`crate::headless`] requests them when
+//! the adapter offers them), else from the wall clock around one submission per pass
+//! ([`Clock`]).
 
+use crate::cascade::CascadeRayCast;
 use crate::mesh::{DepthTarget, ResolvePass};
-use crate::raycast::{RayEffects, Shading};
+use crate::raycast::{RayEffects, RayOutputs, Shading};
+use crate::rbf::RbfPass;
+use crate::silhouette::SilhouettePass;
 use crate::terrain::Crater;
 use crate::{util, Error, GpuTerrain, Method, NormalPass, RayCastPass};
+use relief_core::rbf::{
+    adaptive_grid_bound, build_adaptive_grid, fit_cascades, AdaptiveGrid, CascadeOptions, Cascades,
+    Cell, GridOptions, InfluenceSets, Rbf, RbfOptions,
+};
 use relief_core::{Camera, NormalMethod, Terrain};
 use std::time::Instant;
 
@@ -109,6 +134,22 @@ pub enum PassName {
     RayCast,
     /// Depth output ([`ResolvePass`]).
     DepthResolve,
+    /// Silhouette partitioning: the silhouette map ([`SilhouettePass::encode_map`]).
+    SilhouetteMap,
+    /// Silhouette partitioning: the packed tree ([`SilhouettePass::encode_tree`]).
+    SilhouetteTree,
+    /// Silhouette partitioning: the fixed-cost trace ([`SilhouettePass::encode_trace`]).
+    SilhouetteTrace,
+    /// Cascade ray cast: the three cascades discretized
+    /// ([`CascadeRayCast::encode_discretize`]).
+    RbfDiscretize,
+    /// Cascade ray cast: a maximum mipmap per cascade ([`CascadeRayCast::encode_maxmip`]).
+    CascadeMaxMip,
+    /// Cascade ray cast: a ray cast per cascade ([`CascadeRayCast::encode_rays`]).
+    CascadeRayCast,
+    /// Cascade ray cast: overlap hits blended, weights computed on the GPU
+    /// ([`CascadeRayCast::encode_blend`]).
+    CascadeBlend,
 }
 
 impl PassName {
@@ -125,6 +166,13 @@ impl PassName {
             PassName::NormalMap => "normal_map",
             PassName::RayCast => "raycast",
             PassName::DepthResolve => "depth_resolve",
+            PassName::SilhouetteMap => "silhouette_map",
+            PassName::SilhouetteTree => "silhouette_tree",
+            PassName::SilhouetteTrace => "silhouette_trace",
+            PassName::RbfDiscretize => "rbf_discretize",
+            PassName::CascadeMaxMip => "cascade_maxmip",
+            PassName::CascadeRayCast => "cascade_raycast",
+            PassName::CascadeBlend => "cascade_blend",
         }
     }
 }
@@ -149,6 +197,7 @@ pub struct Scene {
     craters: Vec<Crater>,
     detail: Option<(Vec<f32>, u32, u32)>,
     water_surface: Option<Vec<f32>>,
+    rbf_grid: Option<GridOptions>,
 }
 
 impl Default for Scene {
@@ -168,7 +217,46 @@ impl Scene {
             craters: Vec::new(),
             detail: None,
             water_surface: None,
+            rbf_grid: None,
         }
+    }
+
+    /// Sets the adaptive grid of [`Method::Cascades`]' RBF approximation of the terrain
+    /// (default: cells of 1 to 64 samples, `max_error` 1 % of the terrain's height range).
+    ///
+    /// ```
+    /// use relief_core::rbf::GridOptions;
+    /// let s = relief_wgpu::Scene::new().with_rbf_grid(GridOptions::default().with_max_error(2.0));
+    /// assert_eq!(s.rbf_grid().map(|g| g.max_error), Some(2.0));
+    /// ```
+    #[must_use]
+    pub fn with_rbf_grid(mut self, g: GridOptions) -> Scene {
+        self.rbf_grid = Some(g);
+        self
+    }
+
+    /// The adaptive grid options set with [`Scene::with_rbf_grid`].
+    #[must_use]
+    pub fn rbf_grid(&self) -> Option<&GridOptions> {
+        self.rbf_grid.as_ref()
+    }
+
+    /// Whether the method can render the named effects: silhouette partitioning and the
+    /// cascade ray cast take only [`Effect::DepthOutput`]; [`Error::Unsupported`] otherwise.
+    ///
+    /// ```
+    /// use relief_wgpu::{Effect, Method, Scene};
+    /// assert!(Scene::new().with_method(Method::Silhouette).with_effect(Effect::DepthOutput).check().is_ok());
+    /// assert!(Scene::new().with_method(Method::cascades()).with_effect(Effect::Fog).check().is_err());
+    /// ```
+    pub fn check(&self) -> Result<(), Error> {
+        let exotic = matches!(self.method, Method::Silhouette | Method::Cascades { .. });
+        if exotic && self.effects.iter().any(|&e| e != Effect::DepthOutput) {
+            return Err(Error::Unsupported(
+                "silhouette partitioning and the cascade ray cast take only the depth output effect",
+            ));
+        }
+        Ok(())
     }
 
     /// Adds an effect (once).
@@ -293,7 +381,9 @@ impl Scene {
     /// ```
     #[must_use]
     pub fn setup_passes(&self) -> Vec<PassName> {
-        if self.has(Effect::Deformations) {
+        if self.has(Effect::Deformations)
+            || matches!(self.method, Method::Silhouette | Method::Cascades { .. })
+        {
             return Vec::new();
         }
         self.terrain_passes()
@@ -313,21 +403,40 @@ impl Scene {
     /// The exact passes every frame dispatches, in order.
     ///
     /// ```
-    /// use relief_wgpu::{Effect, PassName, Scene};
+    /// use relief_wgpu::{Effect, Method, PassName, Scene};
     /// let s = Scene::new().with_effects(&[Effect::Deformations, Effect::DepthOutput]);
     /// assert_eq!(
     ///     s.frame_passes(),
     ///     vec![PassName::Deform, PassName::MaxMipBuild, PassName::RayCast, PassName::DepthResolve]
     /// );
+    /// assert_eq!(
+    ///     Scene::new().with_method(Method::Silhouette).frame_passes(),
+    ///     vec![PassName::SilhouetteMap, PassName::SilhouetteTree, PassName::SilhouetteTrace]
+    /// );
     /// ```
     #[must_use]
     pub fn frame_passes(&self) -> Vec<PassName> {
         let mut v = Vec::new();
-        if self.has(Effect::Deformations) {
-            v.push(PassName::Deform);
-            v.extend(self.terrain_passes());
+        match self.method {
+            Method::Silhouette => v.extend([
+                PassName::SilhouetteMap,
+                PassName::SilhouetteTree,
+                PassName::SilhouetteTrace,
+            ]),
+            Method::Cascades { .. } => v.extend([
+                PassName::RbfDiscretize,
+                PassName::CascadeMaxMip,
+                PassName::CascadeRayCast,
+                PassName::CascadeBlend,
+            ]),
+            Method::MaxMip | Method::March { .. } => {
+                if self.has(Effect::Deformations) {
+                    v.push(PassName::Deform);
+                    v.extend(self.terrain_passes());
+                }
+                v.push(PassName::RayCast);
+            }
         }
-        v.push(PassName::RayCast);
         if self.has(Effect::DepthOutput) {
             v.push(PassName::DepthResolve);
         }
@@ -359,13 +468,45 @@ pub fn procedural_detail(n: u32, amp: f32) -> Vec<f32> {
     v
 }
 
+/// Where pass times come from.
+///
+/// ```
+/// assert_eq!(relief_wgpu::scene::Clock::Gpu.as_str(), "gpu");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Clock {
+    /// GPU timestamp queries written between the passes of one submission.
+    Gpu,
+    /// The wall clock around one submission per pass, each waited for (the adapter lacks
+    /// timestamp queries).
+    Wall,
+}
+
+impl Clock {
+    /// Its name in `relief render --json` (`"gpu"` or `"wall"`).
+    ///
+    /// ```
+    /// assert_eq!(relief_wgpu::scene::Clock::Wall.as_str(), "wall");
+    /// ```
+    #[must_use]
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Clock::Gpu => "gpu",
+            Clock::Wall => "wall",
+        }
+    }
+}
+
 /// The time one pass took in [`Renderer::render_profiled`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PassTiming {
     /// The pass.
     pub pass: PassName,
-    /// Wall-clock milliseconds from submission until the GPU finished it.
+    /// Milliseconds: between the GPU timestamps before and after the pass, or wall-clock from
+    /// submission until the GPU finished it ([`PassTiming::clock`]).
     pub ms: f64,
+    /// Where the time comes from.
+    pub clock: Clock,
 }
 
 /// A frame read back to the CPU.
@@ -380,6 +521,48 @@ pub struct FrameImage {
     /// RGBA8 colour.
     pub color: Vec<[u8; 4]>,
 }
+
+/// The pass that finds the surface, by method.
+#[derive(Debug)]
+enum Caster {
+    Rays(RayCastPass),
+    Silhouette(SilhouettePass),
+    Cascades(CascadeRayCast),
+}
+
+impl Caster {
+    fn outputs(&self) -> &RayOutputs {
+        match self {
+            Caster::Rays(r) => r.outputs(),
+            Caster::Silhouette(s) => s.outputs(),
+            Caster::Cascades(c) => c.outputs(),
+        }
+    }
+}
+
+/// [`Method::Cascades`]: the RBF approximation on the GPU and what fitting the cascades needs.
+#[derive(Debug)]
+struct CascadeSource {
+    rbf: RbfPass,
+    cells: Vec<Cell>,
+    index: Vec<u32>,
+    options: CascadeOptions,
+    /// World height range of the approximation.
+    z_range: (f32, f32),
+    /// This frame's cascades (fitted by `prepare`).
+    current: Option<Cascades>,
+}
+
+/// GPU timestamps around every pass of a frame.
+#[derive(Debug)]
+struct Timestamps {
+    set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    staging: wgpu::Buffer,
+    count: u32,
+}
+
+const MAX_TIMESTAMPS: u32 = 32;
 
 /// Renders a terrain as its [`Scene`] says, on the caller's device.
 ///
@@ -403,9 +586,11 @@ pub struct Renderer {
     normals: Option<NormalPass>,
     detail: Option<(wgpu::Buffer, u32, u32)>,
     water: Option<wgpu::Buffer>,
-    rays: Option<RayCastPass>,
+    caster: Option<Caster>,
+    cascades: Option<CascadeSource>,
     resolve: Option<ResolvePass>,
     target: Option<DepthTarget>,
+    timestamps: Option<Timestamps>,
     setup_done: bool,
     last: Vec<PassName>,
 }
@@ -415,13 +600,17 @@ pub const NEAR: f32 = 1.0;
 
 impl Renderer {
     /// Uploads `terrain` and creates the passes `scene` needs (pipelines specialised for its
-    /// effects). Nothing is dispatched until the first frame.
+    /// effects). Nothing is dispatched until the first frame. For [`Method::Cascades`] this
+    /// builds the terrain's RBF approximation on the CPU (adaptive grid, influence sets;
+    /// [`Scene::with_rbf_grid`]) and uploads it. [`Error::Unsupported`] for effects the
+    /// method does not take ([`Scene::check`]).
     pub fn new<T: Terrain>(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         terrain: &T,
         scene: Scene,
     ) -> Result<Renderer, Error> {
+        scene.check()?;
         let dynamic = scene.has(Effect::Deformations);
         let mut gt = GpuTerrain::new(device, queue, terrain, dynamic)?;
         if dynamic {
@@ -464,17 +653,94 @@ impl Renderer {
                 h,
             )
         });
+        let cascades = match scene.method {
+            Method::Cascades { resolution } => Some(Self::approximate(
+                device,
+                terrain,
+                &gt,
+                scene.rbf_grid.as_ref(),
+                resolution,
+            )?),
+            _ => None,
+        };
+        let features = device.features();
+        let timestamps = features
+            .contains(
+                wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS,
+            )
+            .then(|| Timestamps {
+                set: device.create_query_set(&wgpu::QuerySetDescriptor {
+                    label: Some("relief pass timestamps"),
+                    ty: wgpu::QueryType::Timestamp,
+                    count: MAX_TIMESTAMPS,
+                }),
+                resolve: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("relief timestamps resolve"),
+                    size: u64::from(MAX_TIMESTAMPS) * 8,
+                    usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+                    mapped_at_creation: false,
+                }),
+                staging: device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("relief timestamps readback"),
+                    size: u64::from(MAX_TIMESTAMPS) * 8,
+                    usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                }),
+                count: MAX_TIMESTAMPS,
+            });
         Ok(Renderer {
             scene,
             terrain: gt,
             normals,
             detail,
             water,
-            rays: None,
+            caster: None,
+            cascades,
             resolve: None,
             target: None,
+            timestamps,
             setup_done: false,
             last: Vec::new(),
+        })
+    }
+
+    /// The RBF approximation of `terrain` (seed 002 sections 2-4) on the GPU.
+    fn approximate<T: Terrain>(
+        device: &wgpu::Device,
+        terrain: &T,
+        gt: &GpuTerrain,
+        grid: Option<&GridOptions>,
+        resolution: u32,
+    ) -> Result<CascadeSource, Error> {
+        let (w, h) = gt.size();
+        let (lo, hi) = gt.base_range();
+        let grid_opts = grid.copied().unwrap_or_else(|| {
+            GridOptions::default()
+                .with_max_error(0.01 * (hi - lo).max(1e-3))
+                .with_cells(1, 64)
+        });
+        let bound = adaptive_grid_bound(w, h).ok_or(Error::Unsupported("grid too large"))?;
+        let mut cells = vec![Cell::default(); bound];
+        let n = build_adaptive_grid(terrain, &grid_opts, &mut cells)?;
+        cells.truncate(n);
+        let mut index = vec![0u32; bound];
+        let ropts = RbfOptions::default();
+        let rbf = {
+            let grid = AdaptiveGrid::new(w, h, &cells, &mut index)?;
+            let mut offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
+            let mut entries = vec![0u32; InfluenceSets::entries_len(&grid, &ropts)?];
+            let sets = InfluenceSets::build(&grid, &ropts, &mut offsets, &mut entries)?;
+            let rbf = Rbf::new(grid, sets, &ropts)?;
+            RbfPass::new(device, &rbf, &sets)?
+        };
+        let z0 = gt.scale().z_offset;
+        Ok(CascadeSource {
+            rbf,
+            cells,
+            index,
+            options: CascadeOptions::default().with_resolution(resolution),
+            z_range: (lo + z0, hi + z0),
+            current: None,
         })
     }
 
@@ -503,35 +769,117 @@ impl Renderer {
         self.target.as_ref()
     }
 
-    /// The ray caster (after the first frame).
+    /// The ray caster of [`Method::MaxMip`] and [`Method::March`] (after the first frame).
     #[must_use]
     pub fn ray_pass(&self) -> Option<&RayCastPass> {
-        self.rays.as_ref()
+        match &self.caster {
+            Some(Caster::Rays(r)) => Some(r),
+            _ => None,
+        }
+    }
+
+    /// The silhouette passes of [`Method::Silhouette`] (after the first frame).
+    #[must_use]
+    pub fn silhouette_pass(&self) -> Option<&SilhouettePass> {
+        match &self.caster {
+            Some(Caster::Silhouette(s)) => Some(s),
+            _ => None,
+        }
+    }
+
+    /// The cascade ray cast of [`Method::Cascades`] (after the first frame).
+    #[must_use]
+    pub fn cascade_pass(&self) -> Option<&CascadeRayCast> {
+        match &self.caster {
+            Some(Caster::Cascades(c)) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// The cascades of the last frame ([`Method::Cascades`]).
+    #[must_use]
+    pub fn cascades(&self) -> Option<&Cascades> {
+        self.cascades.as_ref().and_then(|c| c.current.as_ref())
+    }
+
+    /// The frame's output buffers, whatever the method (after the first frame).
+    #[must_use]
+    pub fn outputs(&self) -> Option<&RayOutputs> {
+        self.caster.as_ref().map(Caster::outputs)
+    }
+
+    /// Where [`Renderer::render_profiled`]'s times come from on this device.
+    #[must_use]
+    pub fn clock(&self) -> Clock {
+        if self.timestamps.is_some() {
+            Clock::Gpu
+        } else {
+            Clock::Wall
+        }
+    }
+
+    /// Times passes with the wall clock even when the device has timestamp queries (for
+    /// comparing the two).
+    pub fn use_wall_clock(&mut self) {
+        self.timestamps = None;
     }
 
     fn prepare(&mut self, device: &wgpu::Device, camera: &Camera) -> Result<(), Error> {
         let size = (camera.width, camera.height);
-        let stale = self
-            .rays
-            .as_ref()
-            .is_none_or(|r| (r.outputs().width, r.outputs().height) != size);
+        let stale = self.caster.as_ref().is_none_or(|c| {
+            let o = c.outputs();
+            (o.width, o.height) != size
+        });
         if stale {
-            let rays = RayCastPass::new_with_water(
-                device,
-                &self.terrain,
-                self.normals.as_ref().map(|n| n.buffer()),
-                self.detail.as_ref().map(|(b, w, h)| (b, *w, *h)),
-                self.water.as_ref(),
-                self.scene.method,
-                self.scene.ray_effects(),
-                size.0,
-                size.1,
-            )?;
+            let caster = match self.scene.method {
+                Method::Silhouette => {
+                    Caster::Silhouette(SilhouettePass::new(device, &self.terrain, size.0, size.1)?)
+                }
+                Method::Cascades { resolution } => {
+                    let Some(src) = &self.cascades else {
+                        return Err(Error::Unsupported("cascades without an RBF approximation"));
+                    };
+                    let (lo, hi) = self.terrain.base_range();
+                    Caster::Cascades(CascadeRayCast::new(
+                        device,
+                        &src.rbf,
+                        resolution,
+                        self.terrain.scale(),
+                        (lo, hi),
+                        size.0,
+                        size.1,
+                    )?)
+                }
+                Method::MaxMip | Method::March { .. } => Caster::Rays(RayCastPass::new_with_water(
+                    device,
+                    &self.terrain,
+                    self.normals.as_ref().map(|n| n.buffer()),
+                    self.detail.as_ref().map(|(b, w, h)| (b, *w, *h)),
+                    self.water.as_ref(),
+                    self.scene.method,
+                    self.scene.ray_effects(),
+                    size.0,
+                    size.1,
+                )?),
+            };
             if self.scene.has(Effect::DepthOutput) {
-                self.resolve = Some(ResolvePass::new(device, rays.outputs(), NEAR));
+                self.resolve = Some(ResolvePass::new(device, caster.outputs(), NEAR));
                 self.target = Some(DepthTarget::new(device, size.0, size.1));
             }
-            self.rays = Some(rays);
+            self.caster = Some(caster);
+        }
+        if let Some(src) = &mut self.cascades {
+            let (w, h) = self.terrain.size();
+            let grid = AdaptiveGrid::new(w, h, &src.cells, &mut src.index)?;
+            let fit = fit_cascades(
+                camera,
+                &grid,
+                &self.terrain.scale(),
+                src.z_range,
+                &src.options,
+                src.current.as_ref(),
+            )?;
+            src.current = Some(fit);
         }
         Ok(())
     }
@@ -543,24 +891,49 @@ impl Renderer {
         enc: &mut wgpu::CommandEncoder,
         camera: &Camera,
     ) -> Result<(), Error> {
-        match pass {
-            PassName::Deform => self.terrain.encode_deform(enc),
-            PassName::MaxMipBuild => self.terrain.encode_maxmip(enc),
-            PassName::NormalMap => {
+        let fitted = self
+            .cascades
+            .as_ref()
+            .and_then(|c| c.current.as_ref().map(|f| (&c.rbf, f)));
+        match (pass, &self.caster) {
+            (PassName::Deform, _) => self.terrain.encode_deform(enc),
+            (PassName::MaxMipBuild, _) => self.terrain.encode_maxmip(enc),
+            (PassName::NormalMap, _) => {
                 if let Some(n) = &self.normals {
                     n.encode(enc);
                 }
             }
-            PassName::RayCast => {
-                if let Some(r) = &self.rays {
-                    r.encode(queue, enc, &self.terrain, camera, &self.scene.shading)?;
+            (PassName::RayCast, Some(Caster::Rays(r))) => {
+                r.encode(queue, enc, &self.terrain, camera, &self.scene.shading)?;
+            }
+            (PassName::SilhouetteMap, Some(Caster::Silhouette(s))) => {
+                s.write_params(queue, &self.terrain, camera)?;
+                s.encode_map(enc);
+            }
+            (PassName::SilhouetteTree, Some(Caster::Silhouette(s))) => s.encode_tree(enc),
+            (PassName::SilhouetteTrace, Some(Caster::Silhouette(s))) => s.encode_trace(enc),
+            (PassName::RbfDiscretize, Some(Caster::Cascades(c))) => {
+                if let Some((rbf, fit)) = fitted {
+                    c.encode_discretize(queue, enc, rbf, fit)?;
                 }
             }
-            PassName::DepthResolve => {
+            (PassName::CascadeMaxMip, Some(Caster::Cascades(c))) => c.encode_maxmip(enc),
+            (PassName::CascadeRayCast, Some(Caster::Cascades(c))) => {
+                if let Some((_, fit)) = fitted {
+                    c.encode_rays(queue, enc, fit, camera)?;
+                }
+            }
+            (PassName::CascadeBlend, Some(Caster::Cascades(c))) => {
+                if let Some((_, fit)) = fitted {
+                    c.encode_blend(queue, enc, fit, camera)?;
+                }
+            }
+            (PassName::DepthResolve, _) => {
                 if let (Some(r), Some(t)) = (&self.resolve, &self.target) {
                     r.encode(queue, enc, t, camera)?;
                 }
             }
+            _ => return Err(Error::Unsupported("pass does not belong to this method")),
         }
         Ok(())
     }
@@ -610,9 +983,11 @@ impl Renderer {
         self.read_frame(device, queue)
     }
 
-    /// Renders one frame submitting and waiting for each pass separately, and returns each
-    /// pass's wall-clock time (for benchmarks and `relief render --json`; the waits make it
-    /// slower than [`Renderer::render`]).
+    /// Renders one frame and returns each pass's time ([`Renderer::clock`]): with GPU
+    /// timestamps the frame is one submission with a timestamp written between passes (no CPU
+    /// round trip inside the frame; the timestamps are read back with the image); without them
+    /// each pass is submitted and waited for separately, which makes the frame slower than
+    /// [`Renderer::render`].
     pub fn render_profiled(
         &mut self,
         device: &wgpu::Device,
@@ -620,25 +995,59 @@ impl Renderer {
         camera: &Camera,
     ) -> Result<(FrameImage, Vec<PassTiming>), Error> {
         self.prepare(device, camera)?;
-        // Drain earlier work so it is not charged to the first pass.
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| Error::Readback(e.to_string()))?;
         let plan = self.plan();
-        let mut times = Vec::with_capacity(plan.len());
-        for &p in &plan {
-            let start = Instant::now();
-            let mut enc = device.create_command_encoder(&Default::default());
-            self.encode_pass(p, queue, &mut enc, camera)?;
-            queue.submit([enc.finish()]);
-            device
-                .poll(wgpu::PollType::wait_indefinitely())
-                .map_err(|e| Error::Readback(e.to_string()))?;
-            times.push(PassTiming {
-                pass: p,
-                ms: start.elapsed().as_secs_f64() * 1e3,
-            });
-        }
+        let times = match &self.timestamps {
+            Some(ts) if plan.len() < ts.count as usize => {
+                let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("relief frame (timed)"),
+                });
+                enc.write_timestamp(&ts.set, 0);
+                for (k, &p) in plan.iter().enumerate() {
+                    self.encode_pass(p, queue, &mut enc, camera)?;
+                    enc.write_timestamp(&ts.set, k as u32 + 1);
+                }
+                let n = plan.len() as u32 + 1;
+                enc.resolve_query_set(&ts.set, 0..n, &ts.resolve, 0);
+                enc.copy_buffer_to_buffer(&ts.resolve, 0, &ts.staging, 0, u64::from(n) * 8);
+                queue.submit([enc.finish()]);
+                let bytes = util::map_and_read(device, &ts.staging, u64::from(n) * 8)?;
+                let ticks: Vec<u64> = bytes
+                    .chunks_exact(8)
+                    .map(|c| u64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
+                    .collect();
+                let period = f64::from(queue.get_timestamp_period());
+                plan.iter()
+                    .zip(ticks.windows(2))
+                    .map(|(&pass, t)| PassTiming {
+                        pass,
+                        ms: t[1].saturating_sub(t[0]) as f64 * period * 1e-6,
+                        clock: Clock::Gpu,
+                    })
+                    .collect()
+            }
+            _ => {
+                // Drain earlier work so it is not charged to the first pass.
+                device
+                    .poll(wgpu::PollType::wait_indefinitely())
+                    .map_err(|e| Error::Readback(e.to_string()))?;
+                let mut times = Vec::with_capacity(plan.len());
+                for &p in &plan {
+                    let start = Instant::now();
+                    let mut enc = device.create_command_encoder(&Default::default());
+                    self.encode_pass(p, queue, &mut enc, camera)?;
+                    queue.submit([enc.finish()]);
+                    device
+                        .poll(wgpu::PollType::wait_indefinitely())
+                        .map_err(|e| Error::Readback(e.to_string()))?;
+                    times.push(PassTiming {
+                        pass: p,
+                        ms: start.elapsed().as_secs_f64() * 1e3,
+                        clock: Clock::Wall,
+                    });
+                }
+                times
+            }
+        };
         self.setup_done = true;
         self.last.clone_from(&plan);
         Ok((self.read_frame(device, queue)?, times))
@@ -650,10 +1059,10 @@ impl Renderer {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
     ) -> Result<FrameImage, Error> {
-        let Some(r) = &self.rays else {
+        let Some(c) = &self.caster else {
             return Err(Error::Unsupported("no frame rendered yet"));
         };
-        let o = r.outputs();
+        let o = c.outputs();
         Ok(FrameImage {
             width: o.width,
             height: o.height,

@@ -249,6 +249,23 @@ impl SilhouettePass {
         terrain: &GpuTerrain,
         camera: &Camera,
     ) -> Result<(), Error> {
+        self.write_params(queue, terrain, camera)?;
+        self.encode_map(encoder);
+        self.encode_tree(encoder);
+        self.encode_trace(encoder);
+        Ok(())
+    }
+
+    /// Writes the view's parameters (queue writes) for the next
+    /// [`SilhouettePass::encode_map`], [`SilhouettePass::encode_tree`] and
+    /// [`SilhouettePass::encode_trace`]. [`Error::Unsupported`] when part of the terrain is
+    /// behind the camera or the image size differs from the pass's.
+    pub fn write_params(
+        &self,
+        queue: &wgpu::Queue,
+        terrain: &GpuTerrain,
+        camera: &Camera,
+    ) -> Result<(), Error> {
         if camera.width != self.out.width || camera.height != self.out.height {
             return Err(Error::Unsupported(
                 "camera image size differs from the pass's",
@@ -313,22 +330,59 @@ impl SilhouettePass {
             p[38] = level as u32;
             queue.write_buffer(buf, 0, bytemuck::cast_slice(&p));
         }
+        Ok(())
+    }
+
+    /// Records the silhouette map (section 4.1.2): one binary search per padded row and screen
+    /// column. Parameters from the last [`SilhouettePass::write_params`].
+    pub fn encode_map(&self, encoder: &mut wgpu::CommandEncoder) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("relief silhouette"),
+            label: Some("relief silhouette map"),
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.map_pipeline);
         pass.set_bind_group(0, &self.groups[0], &[]);
-        pass.dispatch_workgroups(groups(camera.width, 8), groups(self.v2, 8), 1);
+        pass.dispatch_workgroups(groups(self.out.width, 8), groups(self.v2, 8), 1);
+    }
+
+    /// Records the packed partitioning tree (sections 4.1.3-4.1.5): one dispatch per pair of
+    /// levels, bottom up.
+    pub fn encode_tree(&self, encoder: &mut wgpu::CommandEncoder) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("relief silhouette tree"),
+            timestamp_writes: None,
+        });
         pass.set_pipeline(&self.tree_pipeline);
         for (level, g) in self.groups.iter().enumerate() {
             pass.set_bind_group(0, g, &[]);
             let nodes = self.v2 >> (2 * (level as u32 + 1));
-            pass.dispatch_workgroups(groups(camera.width, 8), groups(nodes, 8), 1);
+            pass.dispatch_workgroups(groups(self.out.width, 8), groups(nodes, 8), 1);
         }
+    }
+
+    /// Records the fixed-cost trace (section 5): [`SilhouettePass::reads_per_pixel`] texel
+    /// reads per pixel, writing depth and colour.
+    pub fn encode_trace(&self, encoder: &mut wgpu::CommandEncoder) {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("relief silhouette trace"),
+            timestamp_writes: None,
+        });
         pass.set_pipeline(&self.trace_pipeline);
         pass.set_bind_group(0, &self.groups[0], &[]);
-        pass.dispatch_workgroups(groups(camera.width, 8), groups(camera.height, 8), 1);
-        Ok(())
+        pass.dispatch_workgroups(groups(self.out.width, 8), groups(self.out.height, 8), 1);
     }
+}
+
+/// Texels each pixel of a silhouette-partitioning trace reads for a `width x height` grid,
+/// whatever the terrain and view: one packed tree texel per pair of levels of the tree over the
+/// `max(width, height)` rows padded to a power of four, plus two silhouette-map texels for the
+/// interpolation between rows (the same as [`SilhouettePass::reads_per_pixel`]).
+///
+/// ```
+/// assert_eq!(relief_wgpu::silhouette::reads_per_pixel(1025, 1025), 8);
+/// assert_eq!(relief_wgpu::silhouette::reads_per_pixel(64, 16), 3 + 2);
+/// ```
+#[must_use]
+pub fn reads_per_pixel(width: u32, height: u32) -> u32 {
+    padded_rows(width.max(height)).1 + 2
 }

@@ -27,8 +27,13 @@ fn gpu() -> Option<&'static Gpu> {
     GPU.get_or_init(|| match relief_wgpu::headless() {
         Ok(g) => {
             eprintln!(
-                "GPU tests on {} ({:?}, {:?})",
-                g.info.name, g.info.backend, g.info.device_type
+                "GPU tests on {} ({:?}, {:?}), timestamp queries: {}",
+                g.info.name,
+                g.info.backend,
+                g.info.device_type,
+                g.device
+                    .features()
+                    .contains(wgpu::Features::TIMESTAMP_QUERY)
             );
             Some(g)
         }
@@ -609,9 +614,53 @@ fn scenes_dispatch_exactly_the_passes_their_effects_need() {
             vec![Deform, MaxMipBuild, NormalMap, RayCast],
             vec![Deform, MaxMipBuild, NormalMap, RayCast],
         ),
+        (
+            Scene::new().with_method(Method::Silhouette),
+            vec![SilhouetteMap, SilhouetteTree, SilhouetteTrace],
+            vec![SilhouetteMap, SilhouetteTree, SilhouetteTrace],
+        ),
+        (
+            Scene::new()
+                .with_method(Method::Silhouette)
+                .with_effect(Effect::DepthOutput),
+            vec![SilhouetteMap, SilhouetteTree, SilhouetteTrace, DepthResolve],
+            vec![SilhouetteMap, SilhouetteTree, SilhouetteTrace, DepthResolve],
+        ),
+        (
+            Scene::new().with_method(Method::Cascades { resolution: 64 }),
+            vec![RbfDiscretize, CascadeMaxMip, CascadeRayCast, CascadeBlend],
+            vec![RbfDiscretize, CascadeMaxMip, CascadeRayCast, CascadeBlend],
+        ),
+        (
+            Scene::new()
+                .with_method(Method::Cascades { resolution: 64 })
+                .with_effect(Effect::DepthOutput),
+            vec![
+                RbfDiscretize,
+                CascadeMaxMip,
+                CascadeRayCast,
+                CascadeBlend,
+                DepthResolve,
+            ],
+            vec![
+                RbfDiscretize,
+                CascadeMaxMip,
+                CascadeRayCast,
+                CascadeBlend,
+                DepthResolve,
+            ],
+        ),
     ];
+    // Effects a method cannot render are refused, not silently dropped.
+    for m in [Method::Silhouette, Method::Cascades { resolution: 64 }] {
+        let s = Scene::new().with_method(m).with_effect(Effect::Fog);
+        assert!(matches!(
+            Renderer::new(&g.device, &g.queue, &hf, s),
+            Err(relief_wgpu::Error::Unsupported(_))
+        ));
+    }
     for (scene, first, next) in cases {
-        let name = format!("{:?}", scene.effects());
+        let name = format!("{:?} {:?}", scene.method(), scene.effects());
         let mut r = Renderer::new(&g.device, &g.queue, &hf, scene).unwrap();
         let f1 = r.render(&g.device, &g.queue, &cam).unwrap();
         assert_eq!(r.last_passes(), first.as_slice(), "{name} first frame");
@@ -975,6 +1024,32 @@ fn silhouette_partitioning_matches_its_cpu_model_and_approximates_the_exact_trac
             close >= 0.9,
             "{name}: only {close} of pixels within 2% of the exact trace"
         );
+        // The same method as a Scene: the Renderer dispatches exactly the three silhouette
+        // passes and writes the same image; the fixed read count is the one stated.
+        let mut r = Renderer::new(
+            &g.device,
+            &g.queue,
+            &hf,
+            Scene::new().with_method(Method::Silhouette),
+        )
+        .unwrap();
+        let frame = r.render(&g.device, &g.queue, &cam).unwrap();
+        assert_eq!(
+            r.last_passes(),
+            &[
+                PassName::SilhouetteMap,
+                PassName::SilhouetteTree,
+                PassName::SilhouetteTrace
+            ]
+        );
+        assert_eq!(
+            frame.depth, gd,
+            "{name}: Scene silhouette differs from the pass"
+        );
+        assert_eq!(
+            r.silhouette_pass().unwrap().reads_per_pixel(),
+            relief_wgpu::silhouette::reads_per_pixel(hf.width(), hf.height())
+        );
     }
     // Terrain behind the camera is refused.
     let t = GpuTerrain::new(&g.device, &g.queue, &synth, false).unwrap();
@@ -1151,7 +1226,12 @@ fn cascade_ray_cast_matches_the_cpu_construction() {
         120,
     )
     .unwrap();
-    let z_range = (-20.0, 130.0);
+    // The heights' own range (what a Renderer with Method::Cascades uses).
+    let z_range = s
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
     let cas = fit_cascades(
         &cam,
         rbf.grid(),
@@ -1162,13 +1242,38 @@ fn cascade_ray_cast_matches_the_cpu_construction() {
     )
     .unwrap();
     let pass = relief_wgpu::rbf::RbfPass::new(&g.device, &rbf, &sets).unwrap();
-    let rc = CascadeRayCast::new(&g.device, &g.queue, &pass, &cas, scale, z_range, &cam).unwrap();
-    submit(g, |e| rc.encode(&g.queue, e, &cam).unwrap());
+    let rc =
+        CascadeRayCast::new(&g.device, &pass, 256, scale, z_range, cam.width, cam.height).unwrap();
+    submit(g, |e| rc.encode(&g.queue, e, &pass, &cas, &cam).unwrap());
     let gd = rc.read_depth(&g.device, &g.queue).unwrap();
+    // The same method as a Scene: exactly the four cascade passes, the same image.
+    let mut r = Renderer::new(
+        &g.device,
+        &g.queue,
+        &hf,
+        Scene::new()
+            .with_method(Method::Cascades { resolution: 256 })
+            .with_rbf_grid(gopts),
+    )
+    .unwrap();
+    let frame = r.render(&g.device, &g.queue, &cam).unwrap();
+    assert_eq!(
+        r.last_passes(),
+        &[
+            PassName::RbfDiscretize,
+            PassName::CascadeMaxMip,
+            PassName::CascadeRayCast,
+            PassName::CascadeBlend
+        ]
+    );
+    assert_eq!(r.cascades(), Some(&cas));
+    assert_eq!(frame.depth, gd, "Scene cascades differ from the pass");
 
     // The same construction on the CPU: discretize, invisible texels on the floor, one max-mip
-    // trace per cascade (camera moved to the cascade's origin), then the blend.
+    // trace per cascade (camera moved to the cascade's origin), then the blend with the core's
+    // blend weights (the GPU computes its own in the blend shader).
     let floor = z_range.0 - 10.0 * (z_range.1 - z_range.0) - 1000.0;
+    assert_eq!(rc.floor(), floor);
     let mut per = Vec::new();
     for c in &cas.cascades {
         let t = (c.resolution * c.resolution) as usize;
@@ -1429,4 +1534,59 @@ fn water_surface_from_the_rbf_approximation_matches_the_cpu() {
         "{water_px} {terrain_px}"
     );
     assert!(frac >= 0.999, "{frac} ({bad})");
+}
+
+#[test]
+fn pass_times_come_from_gpu_timestamps_when_the_device_has_them() {
+    let Some(g) = gpu() else { return };
+    let (w, h) = (129, 129);
+    let s = synthetic(w, h);
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let cam = Camera::new(
+        Vec3::new(2.0, 3.0, 180.0),
+        Vec3::new(64.0, 64.0, 40.0),
+        60.0,
+        96,
+        72,
+    )
+    .unwrap();
+    let timing = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
+    let supported = g.device.features().contains(timing);
+    let scene = Scene::new().with_effects(&[Effect::Lighting, Effect::DepthOutput]);
+    let mut r = Renderer::new(&g.device, &g.queue, &hf, scene.clone()).unwrap();
+    let expected = if supported {
+        relief_wgpu::Clock::Gpu
+    } else {
+        relief_wgpu::Clock::Wall
+    };
+    assert_eq!(r.clock(), expected);
+    let reference = Renderer::new(&g.device, &g.queue, &hf, scene)
+        .unwrap()
+        .render(&g.device, &g.queue, &cam)
+        .unwrap();
+    for wall in [false, true] {
+        if wall {
+            r.use_wall_clock();
+        }
+        let start = std::time::Instant::now();
+        let (frame, times) = r.render_profiled(&g.device, &g.queue, &cam).unwrap();
+        let elapsed = start.elapsed().as_secs_f64() * 1e3;
+        let passes: Vec<PassName> = times.iter().map(|t| t.pass).collect();
+        assert_eq!(passes, r.last_passes(), "one time per pass, in order");
+        let clock = if wall {
+            relief_wgpu::Clock::Wall
+        } else {
+            expected
+        };
+        assert!(times
+            .iter()
+            .all(|t| t.clock == clock && t.ms.is_finite() && t.ms >= 0.0));
+        let total: f64 = times.iter().map(|t| t.ms).sum();
+        eprintln!("{clock:?} pass times {times:?}: {total:.3} ms of {elapsed:.3} ms wall");
+        assert!(
+            total > 0.0 && total <= elapsed,
+            "{total} ms vs {elapsed} ms"
+        );
+        assert_eq!(frame, reference, "profiling must not change the frame");
+    }
 }

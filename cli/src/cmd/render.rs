@@ -1,8 +1,9 @@
 //! `relief render`: render a DEM from a camera to a PNG (and optionally a depth image) on the
-//! GPU (relief-wgpu: max-mip or march ray casting, silhouette partitioning, or SOAR refinement
-//! drawn by the mesh pass) or
-//! on the CPU (relief-core tracing, rows in parallel), with the effects named by `--effects`.
-//! JSON lists the passes run with their times.
+//! GPU (relief-wgpu: a `Scene` with max-mip or march ray casting, silhouette partitioning or the
+//! RBF cascade ray cast, or SOAR refinement drawn by the mesh pass) or on the CPU (relief-core
+//! tracing, rows in parallel), with the effects named by `--effects`. JSON lists the passes run
+//! with their times and where the times come from (`timing`: `gpu` timestamp queries or `wall`
+//! clock).
 
 use crate::args::DemArgs;
 use crate::{print_out, CliError, CliResult};
@@ -33,9 +34,13 @@ pub enum RenderMethod {
     Maxmip,
     /// Linear + binary search ray marching (approximate).
     March,
-    /// Silhouette partitioning (seed 000), GPU only, approximate; the terrain must be entirely
-    /// in front of the camera.
+    /// Silhouette partitioning (seed 000), GPU only, approximate, a fixed number of texel
+    /// reads per pixel (`reads_per_pixel` in JSON); the terrain must be entirely in front of
+    /// the camera.
     Silhouette,
+    /// The RBF cascade ray cast (seed 002 section 5), GPU only: the DEM approximated by
+    /// Gaussians on an adaptive grid, discretized into three cascades each frame.
+    Cascades,
     /// View-dependent SOAR refinement drawn as triangles (GPU only).
     Mesh,
 }
@@ -71,6 +76,13 @@ pub struct RenderArgs {
     /// a plane.
     #[arg(long, value_name = "PATH")]
     water_surface: Option<PathBuf>,
+    /// Texels per cascade side for `--method cascades`.
+    #[arg(long, value_name = "N", default_value_t = 512)]
+    cascade_resolution: u32,
+    /// Largest deviation of a DEM sample from its adaptive-grid cell's mean height for
+    /// `--method cascades` (world z units; default 1 % of the DEM's height range).
+    #[arg(long, value_name = "E")]
+    rbf_max_error: Option<f32>,
     /// Screen-space error in pixels for `--method mesh`.
     #[arg(long, value_name = "PX", default_value_t = 1.0)]
     pixel_error: f32,
@@ -114,6 +126,10 @@ pub(crate) struct Rendered {
     depth: Vec<f32>,
     color: Vec<[u8; 4]>,
     device: String,
+    /// Where the pass times come from: "gpu" (timestamp queries) or "wall".
+    timing: &'static str,
+    /// Texel reads per pixel of `--method silhouette`.
+    reads_per_pixel: Option<u32>,
     setup: Vec<(String, f64)>,
     /// Per-frame passes with their milliseconds.
     pub(crate) passes: Vec<(String, f64)>,
@@ -228,49 +244,28 @@ fn render_gpu(
             depth,
             color,
             device,
+            timing: "wall",
+            reads_per_pixel: None,
             setup,
-            passes: medians(&frames),
-        });
-    }
-    if a.method == RenderMethod::Silhouette {
-        if let Some(e) = effects.iter().find(|e| **e != Effect::DepthOutput) {
-            return Err(CliError(format!(
-                "effect '{}' is not available with --method silhouette",
-                e.name()
-            )));
-        }
-        let terrain = relief_wgpu::GpuTerrain::new(&gpu.device, &gpu.queue, hf, false)?;
-        let pass = relief_wgpu::silhouette::SilhouettePass::new(&gpu.device, &terrain, w, h)?;
-        let mut frames = Vec::new();
-        for _ in 0..a.repeat {
-            let t = Instant::now();
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            pass.encode(&gpu.queue, &mut enc, &terrain, camera)?;
-            gpu.queue.submit([enc.finish()]);
-            gpu.device
-                .poll(wgpu::PollType::wait_indefinitely())
-                .map_err(|e| CliError(e.to_string()))?;
-            frames.push(vec![(
-                "silhouette".to_string(),
-                t.elapsed().as_secs_f64() * 1e3,
-            )]);
-        }
-        let o = pass.outputs();
-        return Ok(Rendered {
-            width: w,
-            height: h,
-            depth: o.read_depth(&gpu.device, &gpu.queue)?,
-            color: o.read_color(&gpu.device, &gpu.queue)?,
-            device,
-            setup: Vec::new(),
             passes: medians(&frames),
         });
     }
     let method = match a.method {
         RenderMethod::March => relief_wgpu::Method::march(),
-        _ => relief_wgpu::Method::MaxMip,
+        RenderMethod::Silhouette => relief_wgpu::Method::Silhouette,
+        RenderMethod::Cascades => relief_wgpu::Method::Cascades {
+            resolution: a.cascade_resolution,
+        },
+        RenderMethod::Maxmip | RenderMethod::Mesh => relief_wgpu::Method::MaxMip,
     };
     let mut scene = Scene::new().with_effects(effects).with_method(method);
+    if let Some(e) = a.rbf_max_error {
+        scene = scene.with_rbf_grid(
+            relief_core::rbf::GridOptions::default()
+                .with_max_error(e)
+                .with_cells(1, 64),
+        );
+    }
     if effects.contains(&Effect::Deformations) {
         // Two craters in the middle of the map, a tenth and a twentieth of it across.
         let (cw, ch) = (hf.width() as f32, hf.height() as f32);
@@ -345,6 +340,8 @@ fn render_gpu(
         depth: img.depth,
         color: img.color,
         device,
+        timing: r.clock().as_str(),
+        reads_per_pixel: r.silhouette_pass().map(|p| p.reads_per_pixel()),
         setup,
         passes: medians(&frames),
     })
@@ -484,6 +481,8 @@ pub(crate) fn render_cpu(
         depth,
         color,
         device: format!("cpu ({} threads)", rayon::current_num_threads()),
+        timing: "wall",
+        reads_per_pixel: None,
         setup,
         passes: vec![("trace".to_string(), trace_ms)],
     })
@@ -532,9 +531,12 @@ pub fn run(a: &RenderArgs) -> CliResult {
     let r = match a.backend {
         Backend::Gpu => render_gpu(&hf, &camera, a, &effects)?,
         Backend::Cpu => {
-            if matches!(a.method, RenderMethod::Mesh | RenderMethod::Silhouette) {
+            if matches!(
+                a.method,
+                RenderMethod::Mesh | RenderMethod::Silhouette | RenderMethod::Cascades
+            ) {
                 return Err(CliError(
-                    "--method mesh and --method silhouette need --backend gpu".into(),
+                    "--method mesh, silhouette and cascades need --backend gpu".into(),
                 ));
             }
             render_cpu(&hf, &camera, a.method == RenderMethod::March, &effects)?
@@ -550,6 +552,7 @@ pub fn run(a: &RenderArgs) -> CliResult {
         RenderMethod::Maxmip => "maxmip",
         RenderMethod::March => "march",
         RenderMethod::Silhouette => "silhouette",
+        RenderMethod::Cascades => "cascades",
         RenderMethod::Mesh => "mesh",
     };
     let backend = match a.backend {
@@ -573,6 +576,8 @@ pub fn run(a: &RenderArgs) -> CliResult {
             "rays": r.width as u64 * r.height as u64,
             "hits": hits,
             "frames": a.repeat,
+            "timing": r.timing,
+            "reads_per_pixel": r.reads_per_pixel,
             "setup_passes": list(&r.setup),
             "passes": list(&r.passes),
             "frame_ms": frame_ms,
@@ -587,6 +592,10 @@ pub fn run(a: &RenderArgs) -> CliResult {
             names.join(", "),
             r.width as u64 * r.height as u64
         );
+        if let Some(n) = r.reads_per_pixel {
+            s.push_str(&format!("  {n} texel reads per pixel (fixed)\n"));
+        }
+        s.push_str(&format!("  pass times: {} clock\n", r.timing));
         for (n, ms) in &r.setup {
             s.push_str(&format!("  setup {n:<14} {ms:9.2} ms\n"));
         }
