@@ -151,9 +151,14 @@ impl<'a, B: Sample, D: Sample> Composed<'a, B, D> {
     /// ```
     #[must_use]
     pub fn detail_z(&self, x: u32, y: u32) -> f32 {
+        // Widths are at least 2; `checked_rem` keeps a division-by-zero panic path out of
+        // callers that cannot see the heightfield's construction.
         let dw = self.detail.width();
         let dh = self.detail.height();
-        self.detail.z(x % dw, y % dh)
+        self.detail.z(
+            x.checked_rem(dw).unwrap_or(0),
+            y.checked_rem(dh).unwrap_or(0),
+        )
     }
 
     /// Base cell and fraction for composed coordinate `c` along an axis with `n` base samples.

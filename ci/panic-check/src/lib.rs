@@ -338,6 +338,81 @@ pub unsafe extern "C" fn pc_refine(
     acc
 }
 
+// ---- Detail levels (core::refine::detail) ----
+
+use relief_core::refine::{DetailBounds, DetailRefiner};
+
+/// Detail refinement of a composed surface: both bounds, count-only mode and the triangle list.
+#[no_mangle]
+pub unsafe extern "C" fn pc_detail(
+    p: *const u16,
+    len: usize,
+    w: u32,
+    h: u32,
+    d: *const f32,
+    dlen: usize,
+    dw: u32,
+    dh: u32,
+    factor: u32,
+    s: &[f32; 4],
+    err: *mut f32,
+    rad: *mut f32,
+    qerr: *mut u16,
+    n: usize,
+    scratch: *mut u64,
+    scratch_len: usize,
+    verts: *mut [f32; 3],
+    verts_len: usize,
+    tris: *mut [u32; 3],
+    tris_len: usize,
+    e: f32,
+    cam: &[f32; 8],
+) -> f64 {
+    let Ok(hf) = Heightfield::with_scale(view(p, len), w, h, scale(s)) else {
+        return -1.0;
+    };
+    let Ok(det) = Heightfield::new(view(d, dlen), dw, dh) else {
+        return -1.0;
+    };
+    let Ok(c) = Composed::new(hf, det, factor) else {
+        return -1.0;
+    };
+    let Ok(camera) = Camera::new(
+        Vec3::new(cam[0], cam[1], cam[2]),
+        Vec3::new(cam[3], cam[4], cam[5]),
+        cam[6],
+        640,
+        480,
+    ) else {
+        return -1.0;
+    };
+    let Ok(v) = View::new(&camera, cam[7]) else {
+        return -1.0;
+    };
+    let v = v.with_lazy_levels(e as u32);
+    let measured = DetailBounds::measure(&c);
+    let mut acc = f64::from(measured.error(0).unwrap_or(0.0));
+    let constant = DetailBounds::constant(&c, e).unwrap_or(measured);
+    if let Ok(hc) = preprocess_compact(c.base(), view_mut(qerr, n)) {
+        if let Ok(r) = DetailRefiner::new(&hc, &c, &constant, &v) {
+            acc += r.triangle_count() as f64;
+            acc += r
+                .count(view_mut(scratch, scratch_len))
+                .map_or(0.0, |k| k.vertices as f64);
+        }
+    }
+    let Ok(hier) = preprocess(c.base(), view_mut(err, n), view_mut(rad, n)) else {
+        return -2.0;
+    };
+    if let Ok(r) = DetailRefiner::new(&hier, &c, &measured, &v) {
+        let sc = view_mut(scratch, scratch_len);
+        if let Ok(k) = r.triangles(sc, view_mut(verts, verts_len), view_mut(tris, tris_len)) {
+            acc += k.detail_triangles() as f64 + f64::from(k.finest_level().unwrap_or(0));
+        }
+    }
+    acc
+}
+
 // ---- RBF and cascades (core::rbf) ----
 
 use relief_core::rbf::{

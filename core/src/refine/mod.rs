@@ -44,6 +44,7 @@
 //! assert!(measured <= 1.0);
 //! ```
 
+mod detail;
 mod grid;
 mod preprocess;
 mod raster;
@@ -53,6 +54,9 @@ mod strip;
 #[cfg(test)]
 mod tests;
 
+pub use detail::{
+    detail_scratch_len, DetailBounds, DetailCounts, DetailRefiner, MEASURE_PERIOD_LIMIT,
+};
 pub use grid::RefineGrid;
 pub use scan::{coverage_len, vertical_error, vertical_error_partial, Uncovered};
 pub use select::{Criterion, FrameCounts, MorphVertex, Refiner, StripCounts, View};

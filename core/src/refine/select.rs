@@ -94,6 +94,17 @@ impl View {
         self.tau
     }
 
+    /// Camera, near, far, culling and lazy levels (for the detail refiner in `detail.rs`).
+    pub(crate) fn settings(&self) -> (&Camera, f32, Option<f32>, bool, u32) {
+        (
+            &self.camera,
+            self.near,
+            self.far,
+            self.culling,
+            self.lazy_levels,
+        )
+    }
+
     /// Near plane distance (default 0.1) and optional far plane (default none) for culling.
     ///
     /// ```
