@@ -544,3 +544,98 @@ pub unsafe extern "C" fn pc_silhouette(
     n + silhouette_envelope(view(map, map_len), sw, a, b, view_mut(env, env_len))
         .map_or(0.0, |()| 1.0)
 }
+
+// ---- Live edits and tiles (core::refine::update, core::refine::tile) ----
+
+use relief_core::refine::{
+    crater, export_border, merge_border, preprocess_compact_pyramid, preprocess_pyramid, renest,
+    update, update_compact, PreprocessOptions, Region, Side,
+};
+
+/// Pruned preprocessing (both layouts), a crater, the incremental updates, and the tile border
+/// protocol (export, merge, re-nest) on every side.
+#[no_mangle]
+pub unsafe extern "C" fn pc_refine_edit(
+    samples: *mut f32,
+    len: usize,
+    w: u32,
+    h: u32,
+    s: &[f32; 4],
+    err: *mut f32,
+    rad: *mut f32,
+    qerr: *mut u16,
+    n: usize,
+    pyr: *mut f32,
+    pyr_len: usize,
+    side_e: *mut f32,
+    side_r: *mut f32,
+    side_len: usize,
+    c: &[f32; 4],
+    r: &[u32; 4],
+) -> f64 {
+    let o = PreprocessOptions::default();
+    let mut acc = 0.0f64;
+    let sm = view_mut(samples, len);
+    acc += crater(sm, w, h, c[0], c[1], c[2], c[3]).map_or(0.0, |g| g.map_or(1.0, |g| g.x0 as f64));
+    let Ok(hf) = Heightfield::with_scale(view(samples, len), w, h, scale(s)) else {
+        return -1.0;
+    };
+    let region = Region::new(r[0], r[1], r[2], r[3]).unwrap_or(Region {
+        x0: 0,
+        y0: 0,
+        x1: 0,
+        y1: 0,
+    });
+    if let Ok(hp) = preprocess_pyramid(
+        &hf,
+        view_mut(err, n),
+        view_mut(rad, n),
+        view_mut(pyr, pyr_len),
+        o,
+    ) {
+        acc += hp.error(1, 1).unwrap_or(0.0) as f64;
+    }
+    if let Ok(hu) = update(
+        &hf,
+        view_mut(err, n),
+        view_mut(rad, n),
+        view_mut(pyr, pyr_len),
+        region,
+        o,
+    ) {
+        acc += hu.error(1, 1).unwrap_or(0.0) as f64;
+    }
+    if let Ok(hc) = preprocess_compact_pyramid(&hf, view_mut(qerr, n), view_mut(pyr, pyr_len)) {
+        acc += hc.error(1, 1).unwrap_or(0.0) as f64;
+    }
+    if let Ok(hc) = update_compact(&hf, view_mut(qerr, n), view_mut(pyr, pyr_len), region) {
+        acc += hc.error(1, 1).unwrap_or(0.0) as f64;
+    }
+    for side in Side::ALL {
+        let (e, rr) = (view_mut(err, n), view_mut(rad, n));
+        acc += export_border(
+            w,
+            h,
+            e,
+            rr,
+            side,
+            view_mut(side_e, side_len),
+            view_mut(side_r, side_len),
+        )
+        .unwrap_or(0) as f64;
+        acc += merge_border(
+            w,
+            h,
+            e,
+            rr,
+            side,
+            view(side_e, side_len),
+            view(side_r, side_len),
+        )
+        .unwrap_or(0) as f64;
+    }
+    if let Ok(hr) = renest(&hf, view_mut(err, n), view_mut(rad, n), &Side::ALL, o) {
+        acc += hr.error(1, 1).unwrap_or(0.0) as f64;
+    }
+    acc
+}

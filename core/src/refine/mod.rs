@@ -47,12 +47,17 @@
 mod detail;
 mod grid;
 mod preprocess;
+mod pyramid;
 mod raster;
 mod scan;
 mod select;
 mod strip;
+mod tile;
 #[cfg(test)]
 mod tests;
+mod update;
+#[cfg(test)]
+mod update_tests;
 
 pub use detail::{
     detail_scratch_len, DetailBounds, DetailCounts, DetailRefiner, MEASURE_PERIOD_LIMIT,
@@ -60,6 +65,11 @@ pub use detail::{
 pub use grid::RefineGrid;
 pub use scan::{coverage_len, vertical_error, vertical_error_partial, Uncovered};
 pub use select::{Criterion, FrameCounts, MorphVertex, Refiner, StripCounts, View};
+pub use tile::{border_len, export_border, merge_border, renest, Side};
+pub use update::{
+    crater, preprocess_compact_pyramid, preprocess_pyramid, pyramid_len, update, update_compact,
+    Region,
+};
 
 use crate::{Error, Scale, Terrain};
 
@@ -372,6 +382,7 @@ pub fn preprocess_with<'a, T: Terrain>(
         &mut *errors,
         Some(&mut *radii),
         options.contain_diamond,
+        None,
     );
     Ok(preprocess::finish(
         terrain,
@@ -399,7 +410,7 @@ pub fn preprocess_compact<'a, T: Terrain>(
     errors: &'a mut [u16],
 ) -> Result<Hierarchy<'a>, Error> {
     let g = preprocess::check(terrain, errors.len())?;
-    preprocess::build(terrain, &g, &mut *errors, None, true);
+    preprocess::build(terrain, &g, &mut *errors, None, true, None);
     Ok(preprocess::finish(
         terrain,
         g,

@@ -9,12 +9,13 @@
 //! split vertex has stored error `<= E`, so every sample it covers is within `E` of it.
 
 use super::grid::{Class, RefineGrid};
-use super::raster::{for_each_span, Plane};
+use super::pyramid::{max_deviation, Layout};
+use super::raster::{for_each_span, Plane, RowSpans};
 use super::{ErrorStore, Hierarchy};
 use crate::{Error, Terrain};
 
 /// Relative inflation of bounding-sphere radii so that nesting survives floating point.
-const SPHERE_MARGIN: f64 = 1.0 / (1u64 << 20) as f64;
+pub(crate) const SPHERE_MARGIN: f64 = 1.0 / (1u64 << 20) as f64;
 /// Relative inflation of level-only circle radii (their exact nesting is an equality).
 pub(crate) const CIRCLE_MARGIN: f64 = 1.0 / (1u64 << 16) as f64;
 
@@ -99,9 +100,11 @@ pub(crate) fn triangle_error(t: &impl Terrain, g: &RefineGrid, p: [(i64, i64); 3
             ]) else {
                 return 0.0;
             };
-            if super::raster::orient(p[0], p[1], p[2]).abs() == 2 {
+            if super::raster::orient(p[0], p[1], p[2]).abs() <= 4 {
                 // Area 1 (the finest vertex level): the samples are the three corners and the
-                // midpoint of the one edge of even length. Same values as rasterising.
+                // midpoint of the one edge of even length. Area 2 (centres of 2 x 2 squares):
+                // the corners and the midpoints of all three edges (no interior point, by
+                // Pick's theorem). Same values as rasterising.
                 let mut e = 0.0f64;
                 for k in 0..3 {
                     let (a, b) = (p[k], p[(k + 1) % 3]);
@@ -144,87 +147,217 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     libm::sqrt(dx * dx + dy * dy + dz * dz)
 }
 
+/// The min/max pyramid that lets [`vertex`] skip blocks of large triangles.
+#[derive(Clone, Copy)]
+pub(crate) struct Pruning<'p> {
+    pub(crate) layout: &'p Layout,
+    pub(crate) buf: &'p [f32],
+}
+
+/// Triangles whose bounding box is at least this many samples wide use the pyramid.
+const PRUNE_EXTENT: i64 = 8;
+
+/// [`triangle_error`], or something `<= floor` when that is `<= floor` (blocks of the pyramid
+/// that cannot beat the running maximum are skipped; every sample term is the same formula).
+fn triangle_error_pruned(
+    t: &impl Terrain,
+    g: &RefineGrid,
+    p: [(i64, i64); 3],
+    pruning: Option<Pruning<'_>>,
+    floor: f64,
+) -> f64 {
+    let Some(pr) = pruning else {
+        return triangle_error(t, g, p);
+    };
+    let ext = (p[0].0.max(p[1].0).max(p[2].0) - p[0].0.min(p[1].0).min(p[2].0))
+        .max(p[0].1.max(p[1].1).max(p[2].1) - p[0].1.min(p[1].1).min(p[2].1));
+    if ext < PRUNE_EXTENT || g.classify(p) != Class::Inside {
+        return triangle_error(t, g, p);
+    }
+    let z = [
+        local(t, p[0].0, p[0].1),
+        local(t, p[1].0, p[1].1),
+        local(t, p[2].0, p[2].1),
+    ];
+    let (Some(plane), Some(spans)) = (
+        Plane::new([
+            (p[0].0, p[0].1, z[0]),
+            (p[1].0, p[1].1, z[1]),
+            (p[2].0, p[2].1, z[2]),
+        ]),
+        RowSpans::new(p[0], p[1], p[2]),
+    ) else {
+        return 0.0;
+    };
+    max_deviation(t, pr.layout, pr.buf, &spans, &plane, floor)
+}
+
+/// Computes and stores the nested error (and radius) of vertex `(x, y)` from its diamond and its
+/// children's stored values (which must be final).
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn vertex<T: Terrain, E: ErrorSink + ?Sized>(
+    t: &T,
+    g: &RefineGrid,
+    x: i64,
+    y: i64,
+    errors: &mut E,
+    radii: Option<&mut [f32]>,
+    contain_corners: bool,
+    pruning: Option<Pruning<'_>>,
+) {
+    let w = g.width() as usize;
+    let idx = |x: i64, y: i64| y as usize * w + x as usize;
+    let (xu, yu) = (x as u32, y as u32);
+    let kids = g.children(xu, yu);
+    let mut c = 0.0f32;
+    for &(cx, cy) in kids.iter().flatten() {
+        if g.in_domain(cx, cy) {
+            c = c.max(errors.get(idx(cx, cy)));
+        }
+    }
+    let mut e = 0.0f64;
+    let diamond = g.diamond(xu, yu);
+    for tri in diamond.iter().flatten() {
+        e = e.max(triangle_error_pruned(t, g, *tri, pruning, e.max(c as f64)));
+    }
+    errors.put(idx(x, y), round_up(e).max(c));
+    if let Some(r) = radii {
+        let p = position(t, x, y);
+        let mut rad = 0.0f64;
+        if contain_corners {
+            // Each distinct corner once (the two triangles share their hypotenuse; a repeated
+            // corner would give the same distance).
+            let [a, b] = diamond;
+            let seen = |q: (i64, i64)| a.is_some_and(|ta| ta.contains(&q));
+            let firsts = a.into_iter().flatten();
+            let seconds = b.into_iter().flatten().filter(|&q| !seen(q));
+            for (cx, cy) in firsts.chain(seconds) {
+                if g.in_domain(cx, cy) {
+                    rad = rad.max(dist(p, position(t, cx, cy)));
+                }
+            }
+        }
+        for &(cx, cy) in kids.iter().flatten() {
+            if g.in_domain(cx, cy) {
+                let rc = r.get(idx(cx, cy)).copied().unwrap_or(0.0) as f64;
+                rad = rad.max(dist(p, position(t, cx, cy)) + rc);
+            }
+        }
+        if let Some(slot) = r.get_mut(idx(x, y)) {
+            *slot = round_up(rad * (1.0 + SPHERE_MARGIN) + f64::MIN_POSITIVE);
+        }
+    }
+}
+
+/// The half-sizes of the hierarchy's vertices, finest first, and for each the three passes in
+/// dependency order: `(x0, y0)` of the pass's lattice (step `2h` in both directions) and the
+/// distance from a changed region within which the pass's vertices may change
+/// (`2h - 1` for edge vertices, `3h - 1` for centres; see [`super::update`]).
+pub(crate) fn passes(h: i64) -> [(i64, i64, i64); 3] {
+    [(h, 0, 2 * h - 1), (0, h, 2 * h - 1), (h, h, 3 * h - 1)]
+}
+
+/// Computes every vertex with half-size `h` of the given pass whose coordinates lie in
+/// `[x_lo, x_hi] x [y_lo, y_hi]` (clipped to the grid), in the order [`build`] uses.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn pass_range<T: Terrain, E: ErrorSink + ?Sized>(
+    t: &T,
+    g: &RefineGrid,
+    h: i64,
+    (x0, y0): (i64, i64),
+    (x_lo, x_hi, y_lo, y_hi): (i64, i64, i64, i64),
+    errors: &mut E,
+    mut radii: Option<&mut [f32]>,
+    contain_corners: bool,
+    pruning: Option<Pruning<'_>>,
+) {
+    let (wi, hi) = (g.width() as i64, g.height() as i64);
+    let step = 2 * h;
+    // First lattice coordinate >= lo: x0 + step * ceil((lo - x0) / step).
+    let first = |o: i64, lo: i64| {
+        let lo = lo.max(0);
+        if lo <= o {
+            o
+        } else {
+            o + step * ((lo - o + step - 1) / step.max(1))
+        }
+    };
+    let (xe, ye) = (x_hi.min(wi - 1), y_hi.min(hi - 1));
+    let mut y = first(y0, y_lo);
+    while y <= ye {
+        let mut x = first(x0, x_lo);
+        while x <= xe {
+            vertex(
+                t,
+                g,
+                x,
+                y,
+                errors,
+                radii.as_deref_mut(),
+                contain_corners,
+                pruning,
+            );
+            x += step;
+        }
+        y += step;
+    }
+}
+
+/// Sets the square's corners (always in the mesh): infinite error, zero radius.
+pub(crate) fn corners<E: ErrorSink + ?Sized>(
+    g: &RefineGrid,
+    errors: &mut E,
+    mut radii: Option<&mut [f32]>,
+) {
+    let w = g.width() as usize;
+    let n = g.side() as i64;
+    for (cx, cy) in [(0, 0), (n, 0), (0, n), (n, n)] {
+        if g.in_domain(cx, cy) {
+            let i = cy as usize * w + cx as usize;
+            errors.put(i, f32::INFINITY);
+            if let Some(r) = radii.as_deref_mut() {
+                if let Some(slot) = r.get_mut(i) {
+                    *slot = 0.0;
+                }
+            }
+        }
+    }
+}
+
 /// Fills `errors` (and `radii` when given) bottom-up. Loops: `levels x width x height`
-/// vertices, each over the samples of its diamond (about `2 width height` per level).
+/// vertices, each over the samples of its diamond (about `2 width height` per level), fewer with
+/// `pruning`.
 pub(crate) fn build<T: Terrain, E: ErrorSink + ?Sized>(
     t: &T,
     g: &RefineGrid,
     errors: &mut E,
     mut radii: Option<&mut [f32]>,
     contain_corners: bool,
+    pruning: Option<Pruning<'_>>,
 ) {
-    let w = g.width() as usize;
-    let (wi, hi) = (g.width() as i64, g.height() as i64);
     let n = g.side() as i64;
-    let idx = |x: i64, y: i64| y as usize * w + x as usize;
+    let all = (0, i64::MAX, 0, i64::MAX);
     let mut h = 1i64;
     while h < n {
         // Edge vertices of half-size h (children: centres of half-size h/2, done), then centres
         // of half-size h (children: these edge vertices).
-        for pass in 0..3 {
-            let (x0, y0, sx, sy) = match pass {
-                0 => (h, 0, 2 * h, 2 * h), // horizontal edges
-                1 => (0, h, 2 * h, 2 * h), // vertical edges
-                _ => (h, h, 2 * h, 2 * h), // centres
-            };
-            let mut y = y0;
-            while y < hi {
-                let mut x = x0;
-                while x < wi {
-                    let (xu, yu) = (x as u32, y as u32);
-                    let mut e = 0.0f64;
-                    let diamond = g.diamond(xu, yu);
-                    for tri in diamond.iter().flatten() {
-                        e = e.max(triangle_error(t, g, *tri));
-                    }
-                    let mut ef = round_up(e);
-                    let kids = g.children(xu, yu);
-                    for &(cx, cy) in kids.iter().flatten() {
-                        if g.in_domain(cx, cy) {
-                            ef = ef.max(errors.get(idx(cx, cy)));
-                        }
-                    }
-                    errors.put(idx(x, y), ef);
-                    if let Some(r) = radii.as_deref_mut() {
-                        let p = position(t, x, y);
-                        let mut rad = 0.0f64;
-                        if contain_corners {
-                            for tri in diamond.iter().flatten() {
-                                for &(cx, cy) in tri {
-                                    if g.in_domain(cx, cy) {
-                                        rad = rad.max(dist(p, position(t, cx, cy)));
-                                    }
-                                }
-                            }
-                        }
-                        for &(cx, cy) in kids.iter().flatten() {
-                            if g.in_domain(cx, cy) {
-                                let rc = r.get(idx(cx, cy)).copied().unwrap_or(0.0) as f64;
-                                rad = rad.max(dist(p, position(t, cx, cy)) + rc);
-                            }
-                        }
-                        if let Some(slot) = r.get_mut(idx(x, y)) {
-                            *slot = round_up(rad * (1.0 + SPHERE_MARGIN) + f64::MIN_POSITIVE);
-                        }
-                    }
-                    x += sx;
-                }
-                y += sy;
-            }
+        for (x0, y0, _) in passes(h) {
+            pass_range(
+                t,
+                g,
+                h,
+                (x0, y0),
+                all,
+                errors,
+                radii.as_deref_mut(),
+                contain_corners,
+                pruning,
+            );
         }
         h *= 2;
     }
-    // The square's corners are always in the mesh.
-    for (cx, cy) in [(0, 0), (n, 0), (0, n), (n, n)] {
-        if g.in_domain(cx, cy) {
-            errors.put(idx(cx, cy), f32::INFINITY);
-            if let Some(r) = radii.as_deref_mut() {
-                if let Some(slot) = r.get_mut(idx(cx, cy)) {
-                    *slot = 0.0;
-                }
-            }
-        }
-    }
+    corners(g, errors, radii);
 }
 
 /// Checks that `terrain` fits `len` per-vertex entries and returns its grid.

@@ -45,12 +45,108 @@ impl Plane {
     pub(crate) fn at(&self, x: i64, y: i64) -> f64 {
         self.z0 + self.gx * (x - self.x0) as f64 + self.gy * (y - self.y0) as f64
     }
+
+    /// Bounds `(lo, hi)` on the values [`Plane::at`] computes over the rectangle
+    /// `[x0, x1] x [y0, y1]` (`x0 <= x1`, `y0 <= y1`): the corner values widened by a margin
+    /// (`2^-40` of the largest term) far above the few ulps of rounding `at` can add, so that
+    /// every computed value inside lies in `[lo, hi]`.
+    #[inline]
+    pub(crate) fn range_over(&self, x0: i64, x1: i64, y0: i64, y1: i64) -> (f64, f64) {
+        let (ax, bx) = (
+            self.gx * (x0 - self.x0) as f64,
+            self.gx * (x1 - self.x0) as f64,
+        );
+        let (ay, by) = (
+            self.gy * (y0 - self.y0) as f64,
+            self.gy * (y1 - self.y0) as f64,
+        );
+        let lo = self.z0 + ax.min(bx) + ay.min(by);
+        let hi = self.z0 + ax.max(bx) + ay.max(by);
+        let m = self.z0.abs() + ax.abs().max(bx.abs()) + ay.abs().max(by.abs());
+        let tol = m * (1.0 / (1u64 << 40) as f64) + f64::MIN_POSITIVE;
+        (lo - tol, hi + tol)
+    }
 }
 
 /// Twice the signed area of `(a, b, c)`: positive when counter-clockwise (y up).
 #[inline(always)]
 pub(crate) fn orient(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> i64 {
     (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0)
+}
+
+/// A closed triangle prepared for row queries: [`RowSpans::at`] gives the same spans as
+/// [`for_each_span`] (one formula for both).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RowSpans {
+    p: [(i64, i64); 3],
+    x_lo: i64,
+    x_hi: i64,
+    y_lo: i64,
+    y_hi: i64,
+}
+
+impl RowSpans {
+    /// `None` for a degenerate triangle.
+    pub(crate) fn new(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> Option<RowSpans> {
+        let o = orient(a, b, c);
+        if o == 0 {
+            return None;
+        }
+        Some(RowSpans {
+            p: if o > 0 { [a, b, c] } else { [a, c, b] },
+            x_lo: a.0.min(b.0).min(c.0),
+            x_hi: a.0.max(b.0).max(c.0),
+            y_lo: a.1.min(b.1).min(c.1),
+            y_hi: a.1.max(b.1).max(c.1),
+        })
+    }
+
+    /// The corners, counter-clockwise.
+    pub(crate) fn ccw(&self) -> [(i64, i64); 3] {
+        self.p
+    }
+
+    /// Bounding box `(x_lo, x_hi, y_lo, y_hi)`.
+    pub(crate) fn bbox(&self) -> (i64, i64, i64, i64) {
+        (self.x_lo, self.x_hi, self.y_lo, self.y_hi)
+    }
+
+    /// Inclusive column span of row `y`, `None` when the row holds no grid point.
+    #[inline]
+    pub(crate) fn at(&self, y: i64) -> Option<(i64, i64)> {
+        if y < self.y_lo || y > self.y_hi {
+            return None;
+        }
+        let (mut lo, mut hi) = (self.x_lo, self.x_hi);
+        for k in 0..3 {
+            let (px, py) = self.p[k];
+            let (qx, qy) = self.p[(k + 1) % 3];
+            let (ex, ey) = (qx - px, qy - py);
+            if ey == 0 {
+                if ex * (y - py) < 0 {
+                    return None;
+                }
+                continue;
+            }
+            let bound_floor_ceil = if ex == 0 {
+                (px, px)
+            } else if ex == ey {
+                (px + (y - py), px + (y - py))
+            } else if ex == -ey {
+                (px - (y - py), px - (y - py))
+            } else {
+                let rhs = ex * (y - py) + ey * px;
+                let (n, d) = if ey > 0 { (rhs, ey) } else { (-rhs, -ey) };
+                (n.div_euclid(d), -((-n).div_euclid(d)))
+            };
+            if ey > 0 {
+                hi = hi.min(bound_floor_ceil.0);
+            } else {
+                lo = lo.max(bound_floor_ceil.1);
+            }
+        }
+        (lo <= hi).then_some((lo, hi))
+    }
 }
 
 /// Calls `f(y, x_lo, x_hi)` for every row of the closed triangle `(a, b, c)` that holds grid
@@ -152,6 +248,39 @@ mod tests {
             want.sort_by_key(|p| (p.1, p.0));
             assert_eq!(got, want, "{a:?} {b:?} {c:?}");
         }
+    }
+
+    #[test]
+    fn row_spans_match_for_each_span() {
+        let tris = [
+            ((0, 0), (4, 0), (4, 4)),
+            ((0, 0), (8, 0), (4, 4)),
+            ((4, 4), (2, 2), (2, 6)),
+            ((1, 0), (9, 3), (3, 7)),
+            ((3, 7), (9, 3), (1, 0)),
+        ];
+        for (a, b, c) in tris {
+            let mut want = std::vec::Vec::new();
+            for_each_span(a, b, c, |y, lo, hi| want.push((y, lo, hi)));
+            let r = RowSpans::new(a, b, c).unwrap();
+            let got: std::vec::Vec<_> = (-3..12)
+                .filter_map(|y| r.at(y).map(|(lo, hi)| (y, lo, hi)))
+                .collect();
+            assert_eq!(got, want);
+        }
+    }
+
+    #[test]
+    fn plane_range_contains_every_value() {
+        let p = Plane::new([(0, 0, 1234.5), (64, 0, -17.25), (64, 64, 3.0e4)]).unwrap();
+        let (lo, hi) = p.range_over(8, 40, 3, 60);
+        for y in 3..=60 {
+            for x in 8..=40 {
+                let v = p.at(x, y);
+                assert!(v >= lo && v <= hi);
+            }
+        }
+        assert!(hi - lo < 4.0e4);
     }
 
     #[test]

@@ -1,0 +1,354 @@
+//! Tiles without skirts (issue 6, part 2): a terrain cut into tiles that share their border rows
+//! and columns, each preprocessed (seed 004, chapter 4.5; Lindstrom & Pascucci 2002) and meshed
+//! on its own, possibly on other machines, whose meshes meet with identical border vertices.
+//!
+//! A tile's border vertex sees only its own side of the border: its error and radius lack the
+//! neighbour's triangle and the neighbour's descendants. Two tiles decide a shared border vertex
+//! alike when they store the same error (and, for view-dependent refinement, the same radius) for
+//! it. The **protocol** makes them equal with `O(border)` data per round:
+//!
+//! 1. each tile runs [`super::preprocess`] (or [`super::preprocess_pyramid`]) on its own samples;
+//! 2. each tile [`export_border`]s every side that has a neighbour (errors and radii of the
+//!    samples along that side, in increasing order of the other coordinate);
+//! 3. each tile [`merge_border`]s what its neighbours exported for the opposite sides
+//!    (element-wise maximum; the count of raised values is returned);
+//! 4. each tile [`renest`]s: bottom-up over the vertices whose descendants reach a merged side
+//!    (at half-size `h`, those within `3h` samples of it), every vertex's error becomes the
+//!    maximum of its own and its children's, and its radius again contains its children's spheres.
+//!
+//! Repeat 2-4 until no tile's merge raises a value (values only grow and are bounded, so this
+//! ends; a border vertex near a tile corner also depends on the diagonal neighbour, through the
+//! two other tiles, which is why one round is not always enough: the tests on the bundled DEM
+//! need two or three). At that point every shared border vertex has the same error and radius in
+//! both tiles, errors and radii are nested within every tile, and every stored error still bounds
+//! the tile's own samples, so the union of the tile meshes is crack-free and within `E`.
+//!
+//! Tiles of `2^k + 1` samples per side keep the hierarchy of each tile aligned with its
+//! neighbours'; the last tiles of a map whose size is not a multiple may be smaller (they embed in
+//! a smaller square, and their square corners are forced into both tiles' meshes by the merge).
+
+use super::grid::RefineGrid;
+use super::preprocess::{self, passes, round_up};
+use super::{ErrorStore, Hierarchy, PreprocessOptions};
+use crate::{Error, Terrain};
+
+/// A side of a tile: the column `x = 0` (`XMin`), `x = width - 1` (`XMax`), the row `y = 0`
+/// (`YMin`) or `y = height - 1` (`YMax`).
+///
+/// ```
+/// use relief_core::refine::Side;
+/// assert_eq!(Side::XMax.opposite(), Side::XMin);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Side {
+    /// The column `x = 0`.
+    XMin,
+    /// The column `x = width - 1`.
+    XMax,
+    /// The row `y = 0`.
+    YMin,
+    /// The row `y = height - 1`.
+    YMax,
+}
+
+impl Side {
+    /// All four sides.
+    ///
+    /// ```
+    /// assert_eq!(relief_core::refine::Side::ALL.len(), 4);
+    /// ```
+    pub const ALL: [Side; 4] = [Side::XMin, Side::XMax, Side::YMin, Side::YMax];
+
+    /// The neighbour's side that coincides with this one.
+    ///
+    /// ```
+    /// use relief_core::refine::Side;
+    /// assert_eq!(Side::YMin.opposite(), Side::YMax);
+    /// ```
+    #[must_use]
+    pub fn opposite(self) -> Side {
+        match self {
+            Side::XMin => Side::XMax,
+            Side::XMax => Side::XMin,
+            Side::YMin => Side::YMax,
+            Side::YMax => Side::YMin,
+        }
+    }
+
+    /// Grid point `i` along the side of a `width x height` tile.
+    fn point(self, width: u32, height: u32, i: u32) -> (u32, u32) {
+        match self {
+            Side::XMin => (0, i),
+            Side::XMax => (width.saturating_sub(1), i),
+            Side::YMin => (i, 0),
+            Side::YMax => (i, height.saturating_sub(1)),
+        }
+    }
+}
+
+/// Number of samples along `side` of a `width x height` tile: `height` for `XMin`/`XMax`,
+/// `width` for `YMin`/`YMax`.
+///
+/// ```
+/// use relief_core::refine::{border_len, Side};
+/// assert_eq!(border_len(257, 100, Side::XMax), 100);
+/// assert_eq!(border_len(257, 100, Side::YMin), 257);
+/// ```
+#[must_use]
+pub fn border_len(width: u32, height: u32, side: Side) -> usize {
+    match side {
+        Side::XMin | Side::XMax => height as usize,
+        Side::YMin | Side::YMax => width as usize,
+    }
+}
+
+fn check_arrays(
+    width: u32,
+    height: u32,
+    errors: usize,
+    radii: usize,
+    side: Side,
+    a: usize,
+    b: usize,
+) -> Result<(RefineGrid, usize), Error> {
+    let g = RefineGrid::new(width, height)?;
+    for len in [errors, radii] {
+        if len < g.len() {
+            return Err(Error::BufferTooSmall {
+                needed: g.len(),
+                actual: len,
+            });
+        }
+    }
+    let n = border_len(width, height, side);
+    for len in [a, b] {
+        if len < n {
+            return Err(Error::BufferTooSmall {
+                needed: n,
+                actual: len,
+            });
+        }
+    }
+    Ok((g, n))
+}
+
+/// Step 2 of the protocol: copies the errors and radii of the [`border_len`] samples along
+/// `side` of a `width x height` tile (full layout arrays of [`super::preprocess`]) into
+/// `out_errors` and `out_radii`, in increasing order of the other coordinate. Returns the count.
+///
+/// ```
+/// use relief_core::refine::{export_border, preprocess, Side};
+/// use relief_core::Heightfield;
+/// let hf = Heightfield::new(&[0.0f32, 0.0, 0.0, 0.0, 4.0, 0.0, 0.0, 0.0, 0.0], 3, 3).unwrap();
+/// let (mut e, mut r) = ([0.0; 9], [0.0; 9]);
+/// preprocess(&hf, &mut e, &mut r).unwrap();
+/// let (mut be, mut br) = ([0.0; 3], [0.0; 3]);
+/// assert_eq!(export_border(3, 3, &e, &r, Side::YMin, &mut be, &mut br).unwrap(), 3);
+/// assert_eq!(be[0], f32::INFINITY); // a corner of the square: always in the mesh
+/// assert_eq!(be[1], e[1]);
+/// ```
+pub fn export_border(
+    width: u32,
+    height: u32,
+    errors: &[f32],
+    radii: &[f32],
+    side: Side,
+    out_errors: &mut [f32],
+    out_radii: &mut [f32],
+) -> Result<usize, Error> {
+    let (_, n) = check_arrays(
+        width,
+        height,
+        errors.len(),
+        radii.len(),
+        side,
+        out_errors.len(),
+        out_radii.len(),
+    )?;
+    for (i, (oe, or)) in out_errors
+        .iter_mut()
+        .zip(out_radii.iter_mut())
+        .take(n)
+        .enumerate()
+    {
+        let (x, y) = side.point(width, height, i as u32);
+        let k = y as usize * width as usize + x as usize;
+        *oe = errors.get(k).copied().unwrap_or(f32::INFINITY);
+        *or = radii.get(k).copied().unwrap_or(f32::INFINITY);
+    }
+    Ok(n)
+}
+
+/// Step 3 of the protocol: raises the errors and radii along `side` of this tile to the
+/// neighbour's values (`neighbour_errors`, `neighbour_radii`: what the neighbour exported for
+/// `side.opposite()`), element-wise maximum. Returns how many values were raised (0 for every
+/// side of every tile ends the protocol). Call [`renest`] afterwards.
+///
+/// ```
+/// use relief_core::refine::{merge_border, Side};
+/// let (mut e, mut r) = ([0.0f32; 4], [0.0f32; 4]);
+/// let raised = merge_border(2, 2, &mut e, &mut r, Side::XMax, &[5.0, 0.0], &[1.0, 0.0]);
+/// assert_eq!(raised.unwrap(), 2); // e[1] and r[1]
+/// assert_eq!((e[1], r[1]), (5.0, 1.0));
+/// ```
+pub fn merge_border(
+    width: u32,
+    height: u32,
+    errors: &mut [f32],
+    radii: &mut [f32],
+    side: Side,
+    neighbour_errors: &[f32],
+    neighbour_radii: &[f32],
+) -> Result<usize, Error> {
+    let (_, n) = check_arrays(
+        width,
+        height,
+        errors.len(),
+        radii.len(),
+        side,
+        neighbour_errors.len(),
+        neighbour_radii.len(),
+    )?;
+    let mut raised = 0usize;
+    for (i, (&ne, &nr)) in neighbour_errors
+        .iter()
+        .zip(neighbour_radii)
+        .take(n)
+        .enumerate()
+    {
+        let (x, y) = side.point(width, height, i as u32);
+        let k = y as usize * width as usize + x as usize;
+        if let Some(e) = errors.get_mut(k) {
+            if ne > *e {
+                *e = ne;
+                raised += 1;
+            }
+        }
+        if let Some(r) = radii.get_mut(k) {
+            if nr > *r {
+                *r = nr;
+                raised += 1;
+            }
+        }
+    }
+    Ok(raised)
+}
+
+/// Step 4 of the protocol: restores nesting after [`merge_border`] on the given `sides` of the
+/// tile `terrain` (whose `errors` and `radii` hold its preprocessing plus the merged values):
+/// bottom-up over the vertices within `3h` samples of those sides at each half-size `h`, each
+/// vertex's error becomes at least its children's and its radius contains its children's
+/// spheres (with the margin of [`super::preprocess`]). Values only grow, so every stored error
+/// still bounds the tile's samples. Cost: about `2.5` vertices per border sample, each O(1).
+///
+/// `options` must be the ones of the tile's preprocessing.
+///
+/// ```
+/// use relief_core::refine::{merge_border, preprocess, renest, PreprocessOptions, Side};
+/// use relief_core::Heightfield;
+/// let hf = Heightfield::new(&[0.0f32; 25], 5, 5).unwrap();
+/// let (mut e, mut r) = ([0.0; 25], [0.0; 25]);
+/// preprocess(&hf, &mut e, &mut r).unwrap();
+/// // The neighbour saw a 3-unit error at (4, 1) (a finest-level vertex on this tile's XMax).
+/// merge_border(5, 5, &mut e, &mut r, Side::XMax, &[0.0, 3.0, 0.0, 0.0, 0.0], &[0.0; 5]).unwrap();
+/// let h = renest(&hf, &mut e, &mut r, &[Side::XMax], PreprocessOptions::default()).unwrap();
+/// assert_eq!(h.error(3, 1), Some(3.0)); // its parent
+/// assert_eq!(h.error(2, 2), Some(3.0)); // and the root
+/// ```
+pub fn renest<'a, T: Terrain>(
+    terrain: &T,
+    errors: &'a mut [f32],
+    radii: &'a mut [f32],
+    sides: &[Side],
+    options: PreprocessOptions,
+) -> Result<Hierarchy<'a>, Error> {
+    let _ = options; // the children's spheres are contained whatever the corner option
+    let g = preprocess::check(terrain, errors.len())?;
+    preprocess::check(terrain, radii.len())?;
+    let (w, hgt) = (g.width() as i64, g.height() as i64);
+    let n = g.side() as i64;
+    let mut h = 1i64;
+    while h < n {
+        for (x0, y0, d) in passes(h) {
+            for &side in sides.iter().take(4) {
+                let (xl, xh, yl, yh) = match side {
+                    Side::XMin => (0, d, 0, hgt - 1),
+                    Side::XMax => (w - 1 - d, w - 1, 0, hgt - 1),
+                    Side::YMin => (0, w - 1, 0, d),
+                    Side::YMax => (0, w - 1, hgt - 1 - d, hgt - 1),
+                };
+                nest_range(terrain, &g, h, (x0, y0), (xl, xh, yl, yh), errors, radii);
+            }
+        }
+        h *= 2;
+    }
+    Ok(preprocess::finish(
+        terrain,
+        g,
+        ErrorStore::F32(errors),
+        Some(radii),
+    ))
+}
+
+/// Re-nests the vertices of one pass in a rectangle: error at least the children's, radius
+/// containing the children's spheres.
+fn nest_range<T: Terrain>(
+    t: &T,
+    g: &RefineGrid,
+    h: i64,
+    (x0, y0): (i64, i64),
+    (xl, xh, yl, yh): (i64, i64, i64, i64),
+    errors: &mut [f32],
+    radii: &mut [f32],
+) {
+    let (wi, hi) = (g.width() as i64, g.height() as i64);
+    let step = 2 * h;
+    let first = |o: i64, lo: i64| {
+        let lo = lo.max(0);
+        if lo <= o {
+            o
+        } else {
+            o + step * ((lo - o + step - 1) / step.max(1))
+        }
+    };
+    let w = g.width() as usize;
+    let idx = |x: i64, y: i64| y as usize * w + x as usize;
+    let pos = |x: i64, y: i64| {
+        let s = t.scale();
+        [
+            x as f64 * s.dx as f64,
+            y as f64 * s.dy as f64,
+            t.local_z(x as u32, y as u32) as f64,
+        ]
+    };
+    let mut y = first(y0, yl);
+    while y <= yh.min(hi - 1) {
+        let mut x = first(x0, xl);
+        while x <= xh.min(wi - 1) {
+            let kids = g.children(x as u32, y as u32);
+            let mut e = errors.get(idx(x, y)).copied().unwrap_or(0.0);
+            let p = pos(x, y);
+            let mut rad = 0.0f64;
+            for &(cx, cy) in kids.iter().flatten() {
+                if g.in_domain(cx, cy) {
+                    e = e.max(errors.get(idx(cx, cy)).copied().unwrap_or(0.0));
+                    let rc = radii.get(idx(cx, cy)).copied().unwrap_or(0.0) as f64;
+                    let q = pos(cx, cy);
+                    let (dx, dy, dz) = (p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+                    rad = rad.max(libm::sqrt(dx * dx + dy * dy + dz * dz) + rc);
+                }
+            }
+            if let Some(s) = errors.get_mut(idx(x, y)) {
+                *s = e;
+            }
+            if rad > 0.0 {
+                let need = round_up(rad * (1.0 + preprocess::SPHERE_MARGIN) + f64::MIN_POSITIVE);
+                if let Some(s) = radii.get_mut(idx(x, y)) {
+                    *s = s.max(need);
+                }
+            }
+            x += step;
+        }
+        y += step;
+    }
+}
