@@ -3,9 +3,10 @@
 //! - [`rbf()`]: the adaptive grid's cells, the dashed truncation circles (`3.5 sigma c_i`) of
 //!   chosen cells, and the cells that influence the first chosen cell's centre filled light —
 //!   seed 002's figure 2;
-//! - [`cascades`]: the camera's ground wedge, the potentially visible hull split into three
-//!   cascade polygons at the logarithmic splits, and each cascade's snapped texture square —
-//!   seed 002's figure 1a.
+//! - [`cascades`]: the exact ground footprint of the camera frustum over the heightfield's
+//!   height range ([`frustum_footprint`], from [`relief_core::Camera::frustum_planes`]), the
+//!   potentially visible hull split into three cascade polygons at the logarithmic splits, and
+//!   each cascade's snapped texture square — seed 002's figure 1a.
 //!
 //! Everything drawn is the core's state: [`relief_core::rbf::AdaptiveGrid::cells`], the radius
 //! of [`relief_core::rbf::RbfOptions::radius`], [`relief_core::rbf::Rbf::influencing`] and
@@ -18,7 +19,7 @@ use crate::style::{
     VERMILLION,
 };
 use crate::{DiagramError, DiagramOptions};
-use glam::Vec2;
+use glam::{DMat3, DVec2, DVec3};
 use relief_core::rbf::{Cascades, Rbf, RbfOptions};
 use relief_core::{Camera, Scale};
 use tiny_skia::Pixmap;
@@ -184,10 +185,135 @@ pub struct CascadeView<'a> {
 const CASCADE_COLOURS: [[u8; 3]; 3] = [VERMILLION, ORANGE, YELLOWISH];
 const YELLOWISH: [u8; 3] = crate::style::YELLOW;
 
-/// Seed 002's figure 1a from the core's fit: the heightfield's outline, the camera's ground
-/// wedge (horizontal field of view), the three cascade polygons (filled, overlaps darker) whose
-/// union is the visible hull, the split lines at `splits[0]` and `splits[1]` and the hull's near
-/// and far offsets, and each cascade's snapped texture square (blue, numbered 1-3).
+/// The ground footprint of the camera's view frustum between the planes at distances
+/// `frustum[0]` (near) and `frustum[1]` (far) along the view, cut by the height slab
+/// `z_range[0] <= z <= z_range[1]`: the convex hull, counter-clockwise, of the ground projection
+/// of that solid (seed 002's figure 1a draws it in orange). The frustum's corners are the
+/// intersections of the core's [`Camera::frustum_planes`]; empty when the slab misses the
+/// frustum.
+///
+/// For a fit of [`relief_core::rbf::fit_cascades`], `(fit.frustum, fit.z_range)` gives the
+/// footprint the cascades' visible hull was cut from (the hull is this footprint clipped to the
+/// heightfield's domain).
+///
+/// ```
+/// use relief_core::Camera;
+/// use glam::Vec3;
+/// let cam = Camera::new(Vec3::new(0.0, 0.0, 10.0), Vec3::new(10.0, 0.0, 0.0), 60.0, 4, 4).unwrap();
+/// let f = relief_skia::rbf::frustum_footprint(&cam, [1.0, 100.0], [0.0, 0.0]).unwrap();
+/// assert!(f.len() >= 3 && f.iter().all(|p| p.x > 0.0)); // ground ahead of the eye only
+/// assert!(relief_skia::rbf::frustum_footprint(&cam, [1.0, 100.0], [50.0, 60.0]).unwrap().is_empty());
+/// ```
+pub fn frustum_footprint(
+    camera: &Camera,
+    frustum: [f32; 2],
+    z_range: [f32; 2],
+) -> Result<Vec<DVec2>, DiagramError> {
+    let [z0, z1] = z_range.map(f64::from);
+    if !(z0.is_finite() && z1.is_finite() && z0 <= z1) {
+        return Err(DiagramError::InvalidParameter {
+            name: "z_range",
+            reason: "must be finite, lowest first",
+        });
+    }
+    let planes = camera
+        .frustum_planes(frustum[0], frustum[1])?
+        .map(|p| p.as_dvec4());
+    // Corner k: bit 0 right (else left), bit 1 top (else bottom), bit 2 far (else near).
+    let mut corners = [DVec3::ZERO; 8];
+    for (k, c) in corners.iter_mut().enumerate() {
+        let pick = |bit: usize, a: usize| planes[a + usize::from(k & bit != 0)];
+        let (a, b, e) = (pick(1, 0), pick(2, 2), pick(4, 4));
+        let m = DMat3::from_cols(a.truncate(), b.truncate(), e.truncate()).transpose();
+        if m.determinant().abs() < 1e-300 {
+            return Err(DiagramError::InvalidParameter {
+                name: "camera",
+                reason: "degenerate frustum",
+            });
+        }
+        *c = m.inverse() * -DVec3::new(a.w, b.w, e.w);
+    }
+    let mut pts: Vec<DVec2> = corners
+        .iter()
+        .filter(|c| (z0..=z1).contains(&c.z))
+        .map(|c| c.truncate())
+        .collect();
+    for k in 0..8usize {
+        for bit in [1usize, 2, 4] {
+            if k & bit != 0 {
+                continue;
+            }
+            let (p, q) = (corners[k], corners[k | bit]);
+            for z in [z0, z1] {
+                let (dp, dq) = (p.z - z, q.z - z);
+                if (dp < 0.0) != (dq < 0.0) && dp != dq {
+                    pts.push((p + (q - p) * (dp / (dp - dq))).truncate());
+                }
+            }
+        }
+    }
+    Ok(convex_hull(pts))
+}
+
+/// Andrew's monotone chain, counter-clockwise, collinear points dropped.
+fn convex_hull(mut pts: Vec<DVec2>) -> Vec<DVec2> {
+    pts.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    pts.dedup();
+    if pts.len() < 3 {
+        return Vec::new();
+    }
+    let cross = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o);
+    let turns_left = |hull: &[DVec2], p: DVec2| match hull {
+        [.., o, a] => cross(*o, *a, p) > 0.0,
+        _ => true,
+    };
+    let mut hull: Vec<DVec2> = Vec::with_capacity(2 * pts.len());
+    for &p in &pts {
+        while hull.len() >= 2 && !turns_left(&hull, p) {
+            hull.pop();
+        }
+        hull.push(p);
+    }
+    let lower = hull.len() + 1;
+    for &p in pts.iter().rev().skip(1) {
+        while hull.len() >= lower && !turns_left(&hull, p) {
+            hull.pop();
+        }
+        hull.push(p);
+    }
+    hull.pop();
+    if hull.len() < 3 {
+        Vec::new()
+    } else {
+        hull
+    }
+}
+
+/// The chord of the convex polygon `poly` on the line `(q - eye) . v = offset`, if it crosses.
+fn chord(poly: &[DVec2], eye: DVec2, v: DVec2, offset: f64) -> Option<(DVec2, DVec2)> {
+    let g = |q: DVec2| (q - eye).dot(v) - offset;
+    let mut hits = Vec::new();
+    let mut prev = *poly.last()?;
+    for &q in poly {
+        let (gp, gq) = (g(prev), g(q));
+        if (gp < 0.0) != (gq < 0.0) && gp != gq {
+            hits.push(prev + (q - prev) * (gp / (gp - gq)));
+        }
+        prev = q;
+    }
+    match hits.as_slice() {
+        [a, b, ..] => Some((*a, *b)),
+        _ => None,
+    }
+}
+
+/// Seed 002's figure 1a from the core's fit: the heightfield's outline, the exact ground
+/// footprint of the camera frustum over the fit's height range, near to far
+/// ([`frustum_footprint`] of `fit.frustum` and `fit.z_range`, dashed sky blue), the three
+/// cascade polygons (filled, overlaps darker) whose union is the visible hull (the footprint
+/// clipped to the domain), the split lines at `splits[0]` and `splits[1]` (solid) and the
+/// hull's near and far offsets (dashed) across the footprint, and each cascade's snapped
+/// texture square (blue, numbered 1-3).
 ///
 /// ```
 /// use relief_core::{rbf::*, Camera, Scale};
@@ -212,23 +338,22 @@ pub fn cascades(
             reason: "dx and dy must be finite and positive",
         });
     }
-    let to_s = |p: Vec2| [p.x / s.dx, p.y / s.dy];
+    let to_s = |p: DVec2| {
+        [
+            (p.x / f64::from(s.dx)) as f32,
+            (p.y / f64::from(s.dy)) as f32,
+        ]
+    };
     let cam = view.camera;
-    let eye = Vec2::new(cam.eye.x, cam.eye.y);
+    let eye = DVec2::new(f64::from(cam.eye.x), f64::from(cam.eye.y));
     let (f3, _, _) = cam.basis();
-    let v = Vec2::new(f3.x, f3.y).normalize_or_zero();
-    let (_, left) = cam.ray(0, cam.height / 2);
-    let (_, right) = cam.ray(cam.width.saturating_sub(1), cam.height / 2);
-    let dirs = [left, right].map(|d| Vec2::new(d.x, d.y).normalize_or_zero());
-    let reach = fit.far.max(1.0) * 1.1;
-    // Wedge points in world units.
-    let wedge: Vec<Vec2> = dirs
-        .iter()
-        .map(|d| {
-            let cosang = d.dot(v).max(0.05);
-            eye + *d * (reach / cosang)
-        })
-        .collect();
+    // The core's projected view vector (its offsets are measured along it from the eye).
+    let v = DVec2::new(f64::from(f3.x), f64::from(f3.y)).normalize_or(DVec2::X);
+    let footprint = if fit.frustum[0] > 0.0 && fit.frustum[1] > fit.frustum[0] {
+        frustum_footprint(cam, fit.frustum, fit.z_range)?
+    } else {
+        Vec::new()
+    };
     // Texture squares in sample coordinates.
     let squares: Vec<([f32; 2], [f32; 2])> = fit
         .cascades
@@ -256,6 +381,9 @@ pub fn cascades(
         }
     };
     grow(to_s(eye));
+    for p in &footprint {
+        grow(to_s(*p));
+    }
     if fit.visible {
         for (a, b) in &squares {
             grow(*a);
@@ -270,8 +398,12 @@ pub fn cascades(
         (rgba(YELLOWISH, 0.5), "cascade 3 (union: visible hull)"),
         (rgba(BLUE, 1.0), "snapped texture"),
     ];
+    let frustum_label = format!(
+        "frustum footprint, z {:.0}..{:.0} (dashed)",
+        fit.z_range[0], fit.z_range[1]
+    );
     let row2 = [
-        (rgba(SKY_BLUE, 1.0), "frustum wedge (dashed)"),
+        (rgba(SKY_BLUE, 1.0), frustum_label.as_str()),
         (
             rgba(BLACK, 0.8),
             "splits (solid), near/far of hull (dashed)",
@@ -292,10 +424,14 @@ pub fn cascades(
     if let Some(bg) = opts.background {
         c.background(bg, [-0.5, -0.5], [w + 0.5, h + 0.5]);
     }
+    let foot: Vec<[f32; 2]> = footprint.iter().map(|p| to_s(*p)).collect();
+    if foot.len() >= 3 {
+        c.fill_polygon(&foot, rgba(SKY_BLUE, 0.12));
+    }
     c.stroke_rect(domain.0, domain.1, rgba(BLACK, 0.9), 1.5, false);
     if fit.visible {
         for (k, casc) in fit.cascades.iter().enumerate() {
-            let poly: Vec<[f32; 2]> = casc.polygon().iter().map(|p| to_s(*p)).collect();
+            let poly: Vec<[f32; 2]> = casc.polygon().iter().map(|p| to_s(p.as_dvec2())).collect();
             c.fill_polygon(&poly, rgba(CASCADE_COLOURS[k], 0.3));
             c.stroke(&poly, true, rgba(CASCADE_COLOURS[k], 1.0), 1.5, false);
         }
@@ -305,35 +441,20 @@ pub fn cascades(
             c.label(lab, &format!(" {}", k + 1), LABEL + 2.0, BLUE);
         }
     }
-    // The wedge and the split lines across it.
-    let e = to_s(eye);
-    for p in &wedge {
-        c.stroke(&[e, to_s(*p)], false, rgba(SKY_BLUE, 1.0), 1.5, true);
+    if foot.len() >= 3 {
+        c.stroke(&foot, true, rgba(SKY_BLUE, 1.0), 2.0, true);
     }
-    let n = Vec2::new(-v.y, v.x);
+    // The hull's near and far offsets (dashed) and the splits (solid), across the footprint.
     for (off, dashed) in [
         (fit.near, true),
         (fit.splits[0], false),
         (fit.splits[1], false),
         (fit.far, true),
     ] {
-        let centre = eye + v * off;
-        let half: f32 = dirs
-            .iter()
-            .map(|d| {
-                let c = d.dot(v).max(0.05);
-                (*d * (off / c) - v * off).length()
-            })
-            .fold(0.0, f32::max)
-            * 1.05;
-        c.stroke(
-            &[to_s(centre - n * half), to_s(centre + n * half)],
-            false,
-            rgba(BLACK, 0.8),
-            1.5,
-            dashed,
-        );
+        if let Some((a, b)) = chord(&footprint, eye, v, f64::from(off)) {
+            c.stroke(&[to_s(a), to_s(b)], false, rgba(BLACK, 0.8), 1.5, dashed);
+        }
     }
-    c.dot(e, 4.0, rgba(BLACK, 1.0));
+    c.dot(to_s(eye), 4.0, rgba(BLACK, 1.0));
     Ok(c.finish())
 }

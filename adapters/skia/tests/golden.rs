@@ -16,7 +16,7 @@ use relief_core::rbf::{
 use relief_core::refine::{preprocess, Criterion, View};
 use relief_core::{Camera, Heightfield, Scale, Terrain};
 use relief_skia::dda::{dda, runs, DdaSpec, RunKind};
-use relief_skia::rbf::CascadeView;
+use relief_skia::rbf::{frustum_footprint, CascadeView};
 use relief_skia::refine::{refine, refine_state, RefineInput};
 use relief_skia::{hillshade, DiagramOptions, HillshadeOptions, Pixmap};
 use std::path::PathBuf;
@@ -331,6 +331,99 @@ fn cascades_follow_the_camera() {
     assert_ne!(
         cascades_picture(&camera(), None),
         cascades_picture(&other, None)
+    );
+}
+
+/// The footprint drawn (frustum planes of the core's `Camera`, cut by the fit's height range)
+/// agrees with the hull the core's cascade fitting built independently (from the camera's
+/// corner rays): the hull is the footprint clipped to the domain, so every cascade vertex lies
+/// in the footprint and every footprint vertex inside the domain is a cascade vertex.
+#[test]
+fn frustum_footprint_contains_the_cascade_hull() {
+    let s = samples();
+    let mut cells = vec![Cell::default(); adaptive_grid_bound(N, N).unwrap()];
+    let hf = Heightfield::new(&s, N, N).unwrap();
+    let n =
+        build_adaptive_grid(&hf, &GridOptions::default().with_max_error(1.0), &mut cells).unwrap();
+    let mut index = vec![0; (N * N) as usize];
+    let grid = AdaptiveGrid::new(N, N, &cells[..n], &mut index).unwrap();
+    let views = [
+        (
+            Vec3::new(-10.0, 20.0, 25.0),
+            Vec3::new(40.0, 36.0, 0.0),
+            50.0,
+        ),
+        (
+            Vec3::new(70.0, 70.0, 25.0),
+            Vec3::new(20.0, 30.0, 0.0),
+            50.0,
+        ),
+        (
+            Vec3::new(32.0, -40.0, 60.0),
+            Vec3::new(32.0, 30.0, 0.0),
+            30.0,
+        ),
+        (
+            Vec3::new(30.0, 30.0, 10.0),
+            Vec3::new(60.0, 35.0, 5.0),
+            70.0,
+        ),
+    ];
+    let mut matched = 0;
+    for (eye, target, fov) in views {
+        let cam = Camera::new(eye, target, fov, 320, 240).unwrap();
+        let fit = fit_cascades(
+            &cam,
+            &grid,
+            &Scale::default(),
+            (0.0, 25.0),
+            &CascadeOptions::default().with_resolution(16),
+            None,
+        )
+        .unwrap();
+        assert!(fit.visible);
+        let foot = frustum_footprint(&cam, fit.frustum, fit.z_range).unwrap();
+        assert!(foot.len() >= 3, "{eye}");
+        let tol = 1e-3;
+        let inside = |q: DVec2| {
+            foot.iter()
+                .zip(foot.iter().cycle().skip(1))
+                .all(|(a, b)| (*b - *a).perp_dot(q - *a) / (*b - *a).length() >= -tol)
+        };
+        let hull: Vec<DVec2> = fit
+            .cascades
+            .iter()
+            .flat_map(|k| k.polygon().iter().map(|p| p.as_dvec2()))
+            .collect();
+        for q in &hull {
+            assert!(inside(*q), "{eye}: hull vertex {q} outside the footprint");
+        }
+        let edge = f64::from(N - 1);
+        for p in &foot {
+            if p.x > tol && p.y > tol && p.x < edge - tol && p.y < edge - tol {
+                let d = hull.iter().map(|q| q.distance(*p)).fold(f64::MAX, f64::min);
+                assert!(
+                    d < 1e-2,
+                    "{eye}: footprint vertex {p} is no hull vertex ({d})"
+                );
+                matched += 1;
+            }
+        }
+        // The footprint (not a wedge) is drawn: its outline is in the picture's pixels.
+        let view = CascadeView {
+            camera: &cam,
+            scale: Scale::default(),
+            size: [N, N],
+        };
+        let a = relief_skia::rbf::cascades(&fit, &view, &opts()).unwrap();
+        let mut lower = fit;
+        lower.z_range = [0.0, 5.0];
+        let b = relief_skia::rbf::cascades(&lower, &view, &opts()).unwrap();
+        assert_ne!(a, b, "{eye}: the footprint must follow the height range");
+    }
+    assert!(
+        matched >= 4,
+        "{matched} footprint vertices inside the domains"
     );
 }
 

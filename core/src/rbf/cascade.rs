@@ -371,6 +371,11 @@ fn inside_convex(poly: &[Vec2], q: Vec2, margin: f32) -> bool {
 /// let c = fit_cascades(&cam, &grid, &Scale::default(), (0.0, 1.0), &CascadeOptions::default(), None).unwrap();
 /// assert!(c.near < c.splits[0] && c.splits[0] < c.splits[1] && c.splits[1] < c.far);
 /// assert!(c.cascades[0].spacing <= c.cascades[2].spacing);
+/// assert!(0.0 < c.frustum[0] && c.frustum[0] < c.frustum[1]);
+/// assert_eq!(c.z_range, [0.0, 1.0]);
+/// let planes = cam.frustum_planes(c.frustum[0], c.frustum[1]).unwrap();
+/// let far_corner = glam::Vec4::new(63.0, 63.0, 0.0, 1.0); // inside the frustum's far plane
+/// assert!(planes[5].dot(far_corner) > 0.0);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Cascades {
@@ -384,6 +389,13 @@ pub struct Cascades {
     pub splits: [f32; 2],
     /// Whether any part of the heightfield's bounding box is in the frustum.
     pub visible: bool,
+    /// Distances of the frustum's near and far planes along the view direction (world units):
+    /// the hull is cut from the frustum of [`Camera::frustum_planes`]`(frustum[0], frustum[1])`.
+    /// The far plane lies 1 % beyond the farthest corner of the heightfield's bounding box.
+    pub frustum: [f32; 2],
+    /// The lowest and highest world height of the bounding box the frustum was cut with (the
+    /// `z_range` passed to [`fit_cascades`]).
+    pub z_range: [f32; 2],
 }
 
 /// Fits the three cascades of `camera` over the heightfield described by `grid` (its size and
@@ -456,6 +468,8 @@ pub fn fit_cascades(
         far: 0.0,
         splits: [0.0; 2],
         visible,
+        frustum: [near_d as f32, far_d as f32],
+        z_range: [z0, z1],
     };
     if !(far_d > near_d && near_d > 0.0) {
         return Ok(empty(false));
