@@ -2,19 +2,22 @@
 // (-dz/dx, -dz/dy, 1) normalised; Kentie 2009, seed 003, section 3.6: Sobel for smoother
 // normals). Same border rule as relief_core::normal_map: a missing neighbour is replaced by the
 // sample itself and the difference divided by the spacing actually spanned.
-// Composed base + detail (Balogh section 7.3, summed differences) when DETAIL is set: the detail
-// map (detail_w x detail_h samples, tiled with period detail_w x detail_h base samples) is added
-// to the base heights before differencing.
+// Composed base + detail (Balogh section 7.3, summed differences) when DETAIL is set: the base is
+// refined 2^shift times by bilinear interpolation (relief_core::Composed with factor 2^shift:
+// output sample X lies at base position X / 2^shift) and the detail map (detail_w x detail_h
+// samples, tiled with period detail_w x detail_h output samples) is added before differencing.
 
 struct NormalParams {
+    // Output (composed) grid size; the base grid is ((width - 1) >> shift) + 1 wide.
     width: u32,
     height: u32,
     detail_w: u32,
     detail_h: u32,
+    // Output spacing (the base spacing divided by 2^shift).
     dx: f32,
     dy: f32,
-    _pad0: f32,
-    _pad1: f32,
+    shift: u32,
+    _pad1: u32,
 }
 
 // 0: central differences, 1: Sobel.
@@ -26,8 +29,39 @@ override DETAIL: bool = false;
 @group(0) @binding(2) var<uniform> p: NormalParams;
 @group(0) @binding(3) var<storage, read> detail: array<f32>;
 
+fn lerp(a: f32, b: f32, t: f32) -> f32 {
+    return (1.0 - t) * a + t * b;
+}
+
+// Bilinear base height at output sample (x, y), as relief_core::Composed::base_z.
+fn base_z(x: u32, y: u32) -> f32 {
+    if p.shift == 0u {
+        return heights[y * p.width + x];
+    }
+    let bw = ((p.width - 1u) >> p.shift) + 1u;
+    let bh = ((p.height - 1u) >> p.shift) + 1u;
+    let f = 1u << p.shift;
+    var bx = x >> p.shift;
+    var fx = f32(x & (f - 1u)) / f32(f);
+    if bx >= bw - 1u {
+        bx = bw - 2u;
+        fx = 1.0;
+    }
+    var by = y >> p.shift;
+    var fy = f32(y & (f - 1u)) / f32(f);
+    if by >= bh - 1u {
+        by = bh - 2u;
+        fy = 1.0;
+    }
+    let h00 = heights[by * bw + bx];
+    let h10 = heights[by * bw + bx + 1u];
+    let h01 = heights[(by + 1u) * bw + bx];
+    let h11 = heights[(by + 1u) * bw + bx + 1u];
+    return lerp(lerp(h00, h10, fx), lerp(h01, h11, fx), fy);
+}
+
 fn z(x: u32, y: u32) -> f32 {
-    var h = heights[y * p.width + x];
+    var h = base_z(x, y);
     if DETAIL {
         h += detail[(y % p.detail_h) * p.detail_w + (x % p.detail_w)];
     }

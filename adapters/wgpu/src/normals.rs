@@ -4,8 +4,10 @@
 //! (seed 004), section 2.3 (`(-dz/dx, -dz/dy, 1)` normalised, central differences), the Sobel
 //! operator Kentie 2009 (seed 003, section 3.6) uses for smoother shading, and, with a detail
 //! map, the composed base + detail surface of Balogh's section 7.3 (the detail map tiled over the
-//! base and added before differencing, as [`relief_core::Composed`] does when its period is the
-//! detail size). Same border rule as the CPU: a missing neighbour is the sample itself. One
+//! base and added before differencing, as [`relief_core::Composed`] does; with
+//! [`NormalPass::new_composed`] the base is first refined by a power-of-two factor with bilinear
+//! interpolation, as `Composed` refines it; non-power-of-two factors are not supported, as in
+//! the core). Same border rule as the CPU: a missing neighbour is the sample itself. One
 //! invocation per sample, 8 x 8 workgroups; output `vec4<f32>` per sample (`w = 0`).
 
 use crate::util::{self, bind_buffers, compute_pipeline, groups, storage_entry, uniform_entry};
@@ -47,8 +49,74 @@ impl NormalPass {
         method: NormalMethod,
         detail: Option<(&[f32], u32, u32)>,
     ) -> Result<NormalPass, Error> {
-        let (w, h) = terrain.size();
+        Self::build(device, queue, terrain, method, detail, 0)
+    }
+
+    /// The normals of the composed surface of [`relief_core::Composed`] with `factor`: the
+    /// terrain refined `factor` times by bilinear interpolation (a power of two, at least 1)
+    /// plus `detail` tiled over the refined grid, on the refined grid of
+    /// `((width - 1) * factor + 1) x ((height - 1) * factor + 1)` samples at the base spacing
+    /// divided by `factor`. [`Error::Core`] with [`relief_core::Error::InvalidFactor`] for
+    /// a factor that is not a power of two; [`Error::Unsupported`] for an empty or mis-sized
+    /// detail map or a refined grid beyond the device's storage binding size.
+    ///
+    /// ```no_run
+    /// use relief_core::{Heightfield, NormalMethod};
+    /// let gpu = relief_wgpu::headless()?;
+    /// let hf = Heightfield::new(&[0.0f32, 1.0, 2.0, 0.0, 1.0, 2.0], 3, 2)?;
+    /// let t = relief_wgpu::GpuTerrain::new(&gpu.device, &gpu.queue, &hf, false)?;
+    /// let detail = [0.5f32, -0.5, -0.5, 0.5];
+    /// let pass = relief_wgpu::NormalPass::new_composed(
+    ///     &gpu.device, &gpu.queue, &t, NormalMethod::Sobel, (&detail, 2, 2), 4)?;
+    /// assert_eq!(pass.size(), (9, 5));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn new_composed(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        terrain: &GpuTerrain,
+        method: NormalMethod,
+        detail: (&[f32], u32, u32),
+        factor: u32,
+    ) -> Result<NormalPass, Error> {
+        if !factor.is_power_of_two() {
+            return Err(relief_core::Error::InvalidFactor { factor }.into());
+        }
+        Self::build(
+            device,
+            queue,
+            terrain,
+            method,
+            Some(detail),
+            factor.trailing_zeros(),
+        )
+    }
+
+    fn build(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        terrain: &GpuTerrain,
+        method: NormalMethod,
+        detail: Option<(&[f32], u32, u32)>,
+        shift: u32,
+    ) -> Result<NormalPass, Error> {
+        let (bw, bh) = terrain.size();
+        let refined = |n: u32| {
+            (n - 1)
+                .checked_mul(1u32.checked_shl(shift)?)
+                .and_then(|v| v.checked_add(1))
+        };
+        let (Some(w), Some(h)) = (refined(bw), refined(bh)) else {
+            return Err(relief_core::Error::SizeOverflow.into());
+        };
+        if u64::from(w) * u64::from(h) * 16 > device.limits().max_storage_buffer_binding_size {
+            return Err(Error::Unsupported(
+                "composed normal map beyond the device's storage buffer binding size",
+            ));
+        }
         let s = terrain.scale();
+        let k = (1u32 << shift) as f32;
+        let (dx, dy) = (s.dx / k, s.dy / k);
         let (dw, dh) = match detail {
             Some((d, dw, dh)) => {
                 if dw == 0 || dh == 0 || d.len() != dw as usize * dh as usize {
@@ -66,7 +134,7 @@ impl NormalPass {
         };
         let normals = util::storage(device, "relief normal map", w as u64 * h as u64 * 16);
         let params = util::uniform(device, "relief normal params", 32);
-        let p: [u32; 8] = [w, h, dw, dh, s.dx.to_bits(), s.dy.to_bits(), 0, 0];
+        let p: [u32; 8] = [w, h, dw, dh, dx.to_bits(), dy.to_bits(), shift, 0];
         queue.write_buffer(&params, 0, bytemuck::cast_slice(&p));
         let module =
             device.create_shader_module(wgpu::include_wgsl!("../../../shaders/normals.wgsl"));
@@ -104,6 +172,13 @@ impl NormalPass {
             pipeline,
             group,
         })
+    }
+
+    /// The size of the normal map (the terrain's, or the refined grid's for
+    /// [`NormalPass::new_composed`]).
+    #[must_use]
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
     }
 
     /// The normal map buffer (`width * height` `vec4<f32>`, row-major).

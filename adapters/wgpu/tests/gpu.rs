@@ -160,29 +160,63 @@ fn normal_maps_match_cpu_central_sobel_and_composed() {
         normal_map(&hf, method, &mut cpu).unwrap();
         check(&gpu_n, &cpu, &format!("{method:?}"));
     }
-    // Composed base + detail with factor 1: the detail (world heights) tiled and added.
+    // Composed base + detail: the base refined by the factor (bilinear), the detail (world
+    // heights) tiled over the refined grid and added; factor 1 through `new` and through
+    // `new_composed`, then 2 and 4. The core's Composed takes powers of two only, and so
+    // does the GPU pass (3 is refused with the core's error).
     let (dw, dh) = (7, 5);
     let detail: Vec<f32> = (0..dw * dh)
         .map(|i| ((i * 37) % 11) as f32 * 0.8 - 4.0)
         .collect();
     let dhf = Heightfield::new(&detail, dw, dh).unwrap();
-    let composed = Composed::new(hf, dhf, 1).unwrap();
-    for method in [NormalMethod::Central, NormalMethod::Sobel] {
-        let pass =
-            NormalPass::new(&g.device, &g.queue, &t, method, Some((&detail, dw, dh))).unwrap();
-        submit(g, |e| pass.encode(e));
-        let gpu_n = pass.read(&g.device, &g.queue).unwrap();
-        let mut cpu = vec![Vec3::ZERO; (w * h) as usize];
-        normal_map(&composed, method, &mut cpu).unwrap();
-        check(&gpu_n, &cpu, &format!("composed {method:?}"));
-        // The detail really changed the normals.
-        let mut plain = vec![Vec3::ZERO; (w * h) as usize];
-        normal_map(&hf, method, &mut plain).unwrap();
-        assert!(plain
-            .iter()
-            .zip(&cpu)
-            .any(|(a, b)| (*a - *b).length() > 1e-2));
+    for factor in [0, 1, 2, 4] {
+        let composed = Composed::new(hf, dhf, factor.max(1)).unwrap();
+        let (cw, ch) = (composed.width(), composed.height());
+        assert_eq!(
+            (cw, ch),
+            ((w - 1) * factor.max(1) + 1, (h - 1) * factor.max(1) + 1)
+        );
+        for method in [NormalMethod::Central, NormalMethod::Sobel] {
+            let pass = if factor == 0 {
+                NormalPass::new(&g.device, &g.queue, &t, method, Some((&detail, dw, dh)))
+            } else {
+                NormalPass::new_composed(&g.device, &g.queue, &t, method, (&detail, dw, dh), factor)
+            }
+            .unwrap();
+            assert_eq!(pass.size(), (cw, ch));
+            submit(g, |e| pass.encode(e));
+            let gpu_n = pass.read(&g.device, &g.queue).unwrap();
+            let mut cpu = vec![Vec3::ZERO; (cw * ch) as usize];
+            normal_map(&composed, method, &mut cpu).unwrap();
+            check(&gpu_n, &cpu, &format!("composed x{factor} {method:?}"));
+            // The detail really changed the normals.
+            let plain_c = Composed::new(
+                hf,
+                Heightfield::new(&[0.0f32; 4], 2, 2).unwrap(),
+                factor.max(1),
+            )
+            .unwrap();
+            let mut plain = vec![Vec3::ZERO; (cw * ch) as usize];
+            normal_map(&plain_c, method, &mut plain).unwrap();
+            assert!(plain
+                .iter()
+                .zip(&cpu)
+                .any(|(a, b)| (*a - *b).length() > 1e-2));
+        }
     }
+    assert!(matches!(
+        NormalPass::new_composed(
+            &g.device,
+            &g.queue,
+            &t,
+            NormalMethod::Sobel,
+            (&detail, dw, dh),
+            3
+        ),
+        Err(relief_wgpu::Error::Core(
+            relief_core::Error::InvalidFactor { factor: 3 }
+        ))
+    ));
 }
 
 fn cpu_depth<T: Terrain>(
