@@ -1,0 +1,240 @@
+//! Tiles without skirts (issue 6, part 2): a DEM cut into tiles sharing border rows and columns,
+//! each preprocessed and meshed on its own; after the border protocol (export_border,
+//! merge_border, renest until nothing is raised) the union of the tile meshes passes the crack
+//! checker and the full-grid error scan. Without the protocol it cracks (the control).
+
+use relief_core::refine::{
+    border_len, coverage_len, export_border, hierarchy_len, merge_border, preprocess_pyramid,
+    pyramid_len, renest, scratch_len, vertical_error, Criterion, PreprocessOptions, Refiner, Side,
+};
+use relief_core::{Heightfield, Scale};
+use relief_tests::mesh_check::{check_mesh, CheckOptions};
+use std::collections::HashMap;
+use std::path::Path;
+
+struct Tile {
+    x0: u32,
+    y0: u32,
+    w: u32,
+    h: u32,
+    s: Vec<f32>,
+    e: Vec<f32>,
+    r: Vec<f32>,
+}
+
+fn puget() -> (Vec<f32>, u32, u32, Scale) {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
+    let dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
+    let scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    (dem.samples, dem.width, dem.height, scale)
+}
+
+fn starts(n: u32, size: u32) -> Vec<u32> {
+    let step = size - 1;
+    (0..).map(|k| k * step).take_while(|&s| s + 1 < n).collect()
+}
+
+/// Cuts `samples` (`w x h`) into tiles of `size` samples sharing borders; each preprocessed.
+fn cut(samples: &[f32], w: u32, h: u32, size: u32, scale: Scale) -> Vec<Vec<Tile>> {
+    let o = PreprocessOptions::default();
+    starts(h, size)
+        .into_iter()
+        .map(|y0| {
+            starts(w, size)
+                .into_iter()
+                .map(|x0| {
+                    let (tw, th) = (size.min(w - x0), size.min(h - y0));
+                    let mut s = Vec::with_capacity((tw * th) as usize);
+                    for y in y0..y0 + th {
+                        let row = (y * w + x0) as usize;
+                        s.extend_from_slice(&samples[row..row + tw as usize]);
+                    }
+                    let n = hierarchy_len(tw, th);
+                    let (mut e, mut r) = (vec![0.0; n], vec![0.0; n]);
+                    let mut p = vec![0.0; pyramid_len(tw, th)];
+                    let hf = Heightfield::with_scale(&s, tw, th, scale).unwrap();
+                    preprocess_pyramid(&hf, &mut e, &mut r, &mut p, o).unwrap();
+                    Tile {
+                        x0,
+                        y0,
+                        w: tw,
+                        h: th,
+                        s,
+                        e,
+                        r,
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn neighbour(rows: usize, cols: usize, r: usize, c: usize, side: Side) -> Option<(usize, usize)> {
+    match side {
+        Side::XMin => c.checked_sub(1).map(|c| (r, c)),
+        Side::XMax => (c + 1 < cols).then_some((r, c + 1)),
+        Side::YMin => r.checked_sub(1).map(|r| (r, c)),
+        Side::YMax => (r + 1 < rows).then_some((r + 1, c)),
+    }
+}
+
+/// Runs the border protocol until no merge raises a value; returns the number of rounds.
+fn exchange(tiles: &mut [Vec<Tile>], scale: Scale) -> usize {
+    let (rows, cols) = (tiles.len(), tiles[0].len());
+    for round in 1..=32 {
+        let mut out: HashMap<(usize, usize, Side), (Vec<f32>, Vec<f32>)> = HashMap::new();
+        for (r, row) in tiles.iter().enumerate() {
+            for (c, t) in row.iter().enumerate() {
+                for side in Side::ALL {
+                    if neighbour(rows, cols, r, c, side).is_some() {
+                        let n = border_len(t.w, t.h, side);
+                        let (mut be, mut br) = (vec![0.0; n], vec![0.0; n]);
+                        export_border(t.w, t.h, &t.e, &t.r, side, &mut be, &mut br).unwrap();
+                        out.insert((r, c, side), (be, br));
+                    }
+                }
+            }
+        }
+        let mut raised = 0;
+        for (r, row) in tiles.iter_mut().enumerate() {
+            for (c, t) in row.iter_mut().enumerate() {
+                let mut merged = Vec::new();
+                for side in Side::ALL {
+                    if let Some((nr, nc)) = neighbour(rows, cols, r, c, side) {
+                        let (be, br) = &out[&(nr, nc, side.opposite())];
+                        let k = merge_border(t.w, t.h, &mut t.e, &mut t.r, side, be, br).unwrap();
+                        if k > 0 {
+                            merged.push(side);
+                        }
+                        raised += k;
+                    }
+                }
+                if !merged.is_empty() {
+                    let hf = Heightfield::with_scale(&t.s, t.w, t.h, scale).unwrap();
+                    renest(
+                        &hf,
+                        &mut t.e,
+                        &mut t.r,
+                        &merged,
+                        PreprocessOptions::default(),
+                    )
+                    .unwrap();
+                }
+            }
+        }
+        if raised == 0 {
+            return round;
+        }
+    }
+    panic!("the border protocol did not settle in 32 rounds");
+}
+
+/// Meshes every tile at `e` and welds the union (world coordinates of the whole map).
+fn union(tiles: &[Vec<Tile>], scale: Scale, e: f32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>, usize) {
+    let mut at: HashMap<(u32, u32), u32> = HashMap::new();
+    let (mut v, mut t) = (Vec::new(), Vec::new());
+    let mut per_tile_max = 0;
+    for tile in tiles.iter().flatten() {
+        let hf = Heightfield::with_scale(&tile.s, tile.w, tile.h, scale).unwrap();
+        // The merged data as a hierarchy (`renest` with no side only wraps the arrays).
+        let (mut te, mut tr) = (tile.e.clone(), tile.r.clone());
+        let h = renest(&hf, &mut te, &mut tr, &[], PreprocessOptions::default()).unwrap();
+        let r = Refiner::new(&h, &hf, Criterion::MaxError(e)).unwrap();
+        let mut sc = vec![0; scratch_len(tile.w, tile.h)];
+        let n = r.count(&mut sc).unwrap();
+        let mut tv = vec![[0.0; 3]; n.vertices];
+        let mut tt = vec![[0; 3]; n.triangles];
+        r.triangles(&mut sc, &mut tv, &mut tt).unwrap();
+        per_tile_max = per_tile_max.max(n.triangles);
+        let map: Vec<u32> = tv
+            .iter()
+            .map(|p| {
+                let gx = (p[0] / scale.dx).round() as u32 + tile.x0;
+                let gy = (p[1] / scale.dy).round() as u32 + tile.y0;
+                *at.entry((gx, gy)).or_insert_with(|| {
+                    v.push([gx as f32 * scale.dx, gy as f32 * scale.dy, p[2]]);
+                    (v.len() - 1) as u32
+                })
+            })
+            .collect();
+        t.extend(tt.iter().map(|tri| tri.map(|i| map[i as usize])));
+    }
+    (v, t, per_tile_max)
+}
+
+fn check_union(samples: &[f32], w: u32, h: u32, scale: Scale, tiles: &[Vec<Tile>], e: f32) {
+    let (v, t, _) = union(tiles, scale, e);
+    let o = CheckOptions::grid(w, h, scale.dx as f64, scale.dy as f64);
+    let rep = check_mesh(&v, &t, &o).unwrap_or_else(|m| panic!("{w}x{h} E={e}: {m}"));
+    assert_eq!(rep.triangles, t.len());
+    let hf = Heightfield::with_scale(samples, w, h, scale).unwrap();
+    let mut cov = vec![0; coverage_len(w, h)];
+    let err = vertical_error(&hf, &v, &t, &mut cov).unwrap();
+    assert!(err <= e as f64, "{w}x{h} E={e}: measured {err}");
+}
+
+#[test]
+fn bundled_dem_in_257_tiles_is_crack_free_and_within_e() {
+    let (s, w, h, scale) = puget();
+    let mut tiles = cut(&s, w, h, 257, scale);
+    assert_eq!((tiles.len(), tiles[0].len()), (4, 4));
+    // Control: the tiles' own data (no exchange) crack along the shared borders.
+    let (v, t, _) = union(&tiles, scale, 5.0);
+    let o = CheckOptions::grid(w, h, scale.dx as f64, scale.dy as f64);
+    assert!(
+        check_mesh(&v, &t, &o).is_err(),
+        "expected cracks without the protocol"
+    );
+    let rounds = exchange(&mut tiles, scale);
+    eprintln!("border protocol: {rounds} rounds");
+    assert!(rounds <= 4, "{rounds} rounds");
+    for e in [5.0, 20.0] {
+        check_union(&s, w, h, scale, &tiles, e);
+    }
+}
+
+#[test]
+fn non_multiple_size_with_smaller_last_tiles() {
+    let (s, w, _, scale) = puget();
+    // A 1000 x 700 crop in tiles of 129: the last column is 104 wide, the last row 60 high.
+    let (cw, ch) = (1000u32, 700u32);
+    let mut crop = Vec::with_capacity((cw * ch) as usize);
+    for y in 0..ch {
+        let row = (y * w) as usize;
+        crop.extend_from_slice(&s[row..row + cw as usize]);
+    }
+    let mut tiles = cut(&crop, cw, ch, 129, scale);
+    let last = tiles.last().unwrap().last().unwrap();
+    assert_eq!((last.w, last.h), (104, 60));
+    let rounds = exchange(&mut tiles, scale);
+    eprintln!("border protocol: {rounds} rounds");
+    assert!(rounds <= 4, "{rounds} rounds");
+    for e in [2.0, 10.0] {
+        check_union(&crop, cw, ch, scale, &tiles, e);
+    }
+}
+
+#[test]
+fn random_small_maps_in_tiles() {
+    let mut st = 12345u64;
+    let mut rnd = || {
+        st ^= st << 13;
+        st ^= st >> 7;
+        st ^= st << 17;
+        st
+    };
+    for (w, h, size) in [
+        (33u32, 33u32, 9u32),
+        (40, 27, 17),
+        (21, 50, 5),
+        (64, 64, 33),
+    ] {
+        let s: Vec<f32> = (0..w * h).map(|_| (rnd() % 1000) as f32 * 0.05).collect();
+        let scale = Scale::default();
+        let mut tiles = cut(&s, w, h, size, scale);
+        exchange(&mut tiles, scale);
+        for e in [0.0, 3.0, 15.0] {
+            check_union(&s, w, h, scale, &tiles, e);
+        }
+    }
+}
