@@ -142,4 +142,49 @@ impl DemArgs {
         let _ = read_dem as fn(&std::path::Path, &ReadOptions) -> _;
         Ok((dem, format))
     }
+
+    /// Memory-maps a raw-f32 input (given as `--format raw-f32` or guessed) instead of reading
+    /// it, with the scale overrides applied, so grids larger than memory work (issue 6). `None`
+    /// for other formats and when `--nodata` or a `--fill` policy asks for void handling (which
+    /// needs a copy: use [`DemArgs::load`]).
+    pub fn map_raw_f32(&self) -> CliResult<Option<relief_io::MappedGrid>> {
+        if self.nodata.is_some() || self.fill != Fill::Error {
+            return Ok(None);
+        }
+        let format = match self.format {
+            Some(f) => f,
+            None => {
+                use std::io::Read;
+                let mut head = Vec::new();
+                std::fs::File::open(&self.dem)
+                    .and_then(|f| f.take(16).read_to_end(&mut head))
+                    .map_err(|e| CliError(format!("{}: {e}", self.dem.display())))?;
+                Format::guess(&head, &self.dem)?
+            }
+        };
+        if format != Format::RawF32 {
+            return Ok(None);
+        }
+        let (Some(w), Some(h)) = (self.width, self.height) else {
+            return Err(CliError("raw-f32 needs --width and --height".into()));
+        };
+        let mut g = relief_io::MappedGrid::open(&self.dem, w, h)
+            .map_err(|e| CliError(format!("{}: {e}", self.dem.display())))?;
+        let s = &mut g.scale;
+        for (o, v) in [
+            (&mut s.dx, self.dx),
+            (&mut s.dy, self.dy),
+            (&mut s.z_scale, self.z_scale),
+            (&mut s.z_offset, self.z_offset),
+        ] {
+            if let Some(v) = v {
+                *o = v;
+            }
+        }
+        g.scale.validate()?;
+        g.heightfield()
+            .map_err(|e| CliError(format!("{}: {e}", self.dem.display())))?;
+        g.advise_random();
+        Ok(Some(g))
+    }
 }

@@ -7,9 +7,12 @@ use crate::{print_out, CliError, CliResult};
 use clap::{Args, ValueEnum};
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    coverage_len, hierarchy_len, preprocess, preprocess_compact, scratch_len, strip_bound,
-    vertical_error_partial, Criterion, Hierarchy, Refiner, StripCounts, View,
+    coverage_len, hierarchy_len, pack_records, preprocess, preprocess_compact, records_len,
+    scratch_len, strip_bound, vertical_error_partial, Criterion, Hierarchy, RecordLayout, Refiner,
+    StripCounts, VertexRecord, View,
 };
+use relief_core::refine::{triangle_bound, vertex_bound};
+use relief_core::Terrain;
 use relief_core::{Camera, Heightfield};
 use std::path::PathBuf;
 use std::time::Instant;
@@ -21,6 +24,11 @@ pub enum Layout {
     Full,
     /// bfloat16 error rounded up, radius from the level (2 bytes).
     Compact,
+    /// 8-byte records (height, bfloat16 error and radius) in the subtree-contiguous
+    /// (interleaved, Z-order) layout, packed from the full layout.
+    Records,
+    /// 8-byte records in row-major order.
+    RecordsLinear,
 }
 
 /// Meshing method.
@@ -102,17 +110,38 @@ pub fn run(a: &MeshArgs) -> CliResult {
             ))
         }
     };
-    let (dem, _) = a.dem.load()?;
-    let hf = dem.heightfield()?;
-    let (w, h) = (dem.width, dem.height);
+    // raw-f32 inputs are memory-mapped, not read (grids larger than memory; issue 6).
+    let mapped = a.dem.map_raw_f32()?;
+    let dem;
+    let hf = match &mapped {
+        Some(m) => m.heightfield()?,
+        None => {
+            dem = a.dem.load()?.0;
+            dem.heightfield()?
+        }
+    };
+    let (w, h) = (hf.width(), hf.height());
     let n = hierarchy_len(w, h);
-    let full = a.layout == Layout::Full;
+    let full = a.layout != Layout::Compact;
     let mut errors_f = vec![0.0f32; if full { n } else { 0 }];
     let mut radii = vec![0.0f32; if full { n } else { 0 }];
     let mut errors_c = vec![0u16; if full { 0 } else { n }];
     let t0 = Instant::now();
+    let mut records: Vec<VertexRecord>;
     let hier: Hierarchy<'_> = if full {
-        preprocess(&hf, &mut errors_f, &mut radii)?
+        let f = preprocess(&hf, &mut errors_f, &mut radii)?;
+        let rl = match a.layout {
+            Layout::Records => Some(RecordLayout::Interleaved),
+            Layout::RecordsLinear => Some(RecordLayout::Linear),
+            _ => None,
+        };
+        match rl {
+            Some(rl) => {
+                records = vec![VertexRecord::default(); records_len(w, h, rl)];
+                pack_records(&f, &hf, rl, &mut records)?
+            }
+            None => f,
+        }
     } else {
         preprocess_compact(&hf, &mut errors_c)?
     };
@@ -141,10 +170,13 @@ pub fn run(a: &MeshArgs) -> CliResult {
     let refiner = Refiner::new(&hier, &hf, criterion)?;
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let t1 = Instant::now();
-    let counts = refiner.count(&mut scratch)?;
-    let mut vertices = vec![[0.0f32; 3]; counts.vertices];
-    let mut triangles = vec![[0u32; 3]; counts.triangles];
-    refiner.triangles(&mut scratch, &mut vertices, &mut triangles)?;
+    // One pass into bound-sized buffers (zeroed lazily by the allocator: only the pages the
+    // mesh fills are touched), then cut to the counts.
+    let mut vertices = vec![[0.0f32; 3]; vertex_bound(w, h)];
+    let mut triangles = vec![[0u32; 3]; triangle_bound(w, h)];
+    let counts = refiner.triangles(&mut scratch, &mut vertices, &mut triangles)?;
+    vertices.truncate(counts.vertices);
+    triangles.truncate(counts.triangles);
     let refine_ms = t1.elapsed().as_secs_f64() * 1e3;
     let strip = strip_stats(&refiner, &hf, w, h, false)?;
     let soar_strip = strip_stats(&refiner, &hf, w, h, true)?;

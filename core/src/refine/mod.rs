@@ -46,6 +46,9 @@
 
 mod detail;
 mod grid;
+mod layout;
+#[cfg(test)]
+mod layout_tests;
 mod preprocess;
 mod pyramid;
 mod raster;
@@ -63,6 +66,7 @@ pub use detail::{
     detail_scratch_len, DetailBounds, DetailCounts, DetailRefiner, MEASURE_PERIOD_LIMIT,
 };
 pub use grid::RefineGrid;
+pub use layout::{pack_records, records_len, RecordLayout, VertexRecord};
 pub use scan::{coverage_len, vertical_error, vertical_error_partial, Uncovered};
 pub use select::{Criterion, FrameCounts, MorphVertex, Refiner, StripCounts, View};
 pub use tile::{border_len, export_border, merge_border, renest, Side};
@@ -135,6 +139,8 @@ pub const fn strip_bound(width: u32, height: u32) -> usize {
 pub(crate) enum ErrorStore<'a> {
     F32(&'a [f32]),
     Bf16(&'a [u16]),
+    /// 8-byte records (height, error, radius) in a layout (see [`pack_records`]).
+    Records(&'a [VertexRecord], RecordLayout),
 }
 
 /// Preprocessed refinement data borrowed from caller arrays (see [`preprocess`]).
@@ -202,7 +208,8 @@ impl<'a> Hierarchy<'a> {
     }
 
     /// Bytes of preprocessed data per vertex, heights not counted: 8 (`f32` error and radius)
-    /// or 2 (bfloat16 error, radius from the level).
+    /// or 2 (bfloat16 error, radius from the level); 8 for [`pack_records`]'s records, which
+    /// hold the height too.
     ///
     /// ```
     /// # use relief_core::{refine::preprocess, Heightfield};
@@ -217,6 +224,7 @@ impl<'a> Hierarchy<'a> {
             (ErrorStore::F32(_), None) => 4,
             (ErrorStore::Bf16(_), Some(_)) => 6,
             (ErrorStore::Bf16(_), None) => 2,
+            (ErrorStore::Records(..), _) => 8,
         }
     }
 
@@ -266,11 +274,26 @@ impl<'a> Hierarchy<'a> {
             ErrorStore::Bf16(e) => e
                 .get(i)
                 .map_or(f32::INFINITY, |&c| preprocess::decode_bf16(c)),
+            ErrorStore::Records(r, layout) => r
+                .get(self.record_of(i, layout))
+                .map_or(f32::INFINITY, |r| r.error_value()),
         }
+    }
+
+    /// Record index of row-major vertex `i`.
+    #[inline(always)]
+    fn record_of(&self, i: usize, layout: RecordLayout) -> usize {
+        let w = (self.grid.width() as usize).max(1); // never 0; the max keeps a panic path out
+        layout::record_index(layout, &self.grid, (i % w) as u64, (i / w) as u64)
     }
 
     #[inline(always)]
     pub(crate) fn radius_at(&self, i: usize, level: u32) -> f32 {
+        if let ErrorStore::Records(r, layout) = self.errors {
+            return r
+                .get(self.record_of(i, layout))
+                .map_or(f32::INFINITY, |r| r.radius_value());
+        }
         match self.radii {
             Some(r) => r.get(i).copied().unwrap_or(f32::INFINITY),
             None => self
@@ -282,7 +305,7 @@ impl<'a> Hierarchy<'a> {
     }
 
     pub(crate) fn spheres(&self) -> bool {
-        self.radii.is_some()
+        self.radii.is_some() || matches!(self.errors, ErrorStore::Records(..))
     }
 
     pub(crate) fn scale(&self) -> Scale {

@@ -4,7 +4,8 @@
 //! in a bitmap of kept vertices.
 
 use super::grid::{Class, RefineGrid};
-use super::Hierarchy;
+use super::layout::record_index;
+use super::{ErrorStore, Hierarchy};
 use crate::{Camera, Error, Terrain};
 use glam::Vec4;
 
@@ -412,9 +413,31 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             // View-independent: the kept set is the bitmap (1 bit per vertex, cache-resident),
             // so the traversal never touches the error array.
             let n = self.g.side() as i64;
-            let square = self.g.is_square();
+            if self.g.is_square() && (self.g.len() as u64) <= IDX {
+                let ns = n as u64;
+                let w = ns + 1;
+                let mut vs = ViSquare {
+                    bits,
+                    prefix,
+                    out: TriOut {
+                        out: sink.out,
+                        n: 0,
+                    },
+                };
+                let (c00, c10, c01, c11) = (
+                    vs.vertex(0),
+                    vs.vertex(ns),
+                    vs.vertex(ns * w),
+                    vs.vertex(ns * w + ns),
+                );
+                let depth = self.g.levels();
+                for (l, r, a) in [(c11, c00, c10), (c00, c11, c01)] {
+                    vs.walk(l, r, a, depth);
+                }
+                return Ok(c);
+            }
             for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
-                if square {
+                if self.g.is_square() {
                     self.walk_vi::<_, true>(&mut sink, bits, l, r, a, 0);
                 } else {
                     self.walk_vi::<_, false>(&mut sink, bits, l, r, a, 0);
@@ -547,7 +570,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             return (base, 1.0);
         }
         let level = self.g.level(x, y).unwrap_or(0);
-        let d = self.distance(&v, [xi, yi], z as f64, i, level);
+        let r = self.h.radius_at(i, level) as f64;
+        let d = self.distance(&v, [xi, yi], z as f64, r);
         // rho / tau, the projected error in units of the threshold.
         let ratio = if d > 0.0 && v.tau > 0.0 {
             e * v.kappa / (v.tau * d)
@@ -569,10 +593,26 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             // vertices are +inf). A triangulated rectangle has 2V - B - 2 triangles.
             let e = self.max_error;
             match self.h.errors {
-                super::ErrorStore::F32(errs) => {
-                    fill_bits(bits, errs.get(..n).unwrap_or(errs), |&x| x > e)
+                ErrorStore::F32(errs) => fill_bits(bits, errs.get(..n).unwrap_or(errs), |&x| x > e),
+                ErrorStore::Records(recs, layout) => {
+                    let ce = bf16_floor_code(e);
+                    let (w, h) = (self.g.width() as u64, self.g.height() as u64);
+                    bits.fill(0);
+                    for y in 0..h {
+                        for x in 0..w {
+                            let code = recs
+                                .get(record_index(layout, &self.g, x, y))
+                                .map_or(u16::MAX, |r| r.error);
+                            if code > ce {
+                                let i = (y * w + x) as usize;
+                                if let Some(word) = bits.get_mut(i >> 6) {
+                                    *word |= 1u64 << (i & 63);
+                                }
+                            }
+                        }
+                    }
                 }
-                super::ErrorStore::Bf16(errs) => {
+                ErrorStore::Bf16(errs) => {
                     // Codes are monotone in the error: compare codes with E's code, rounded
                     // so that code > c_e exactly when decode(code) > E.
                     let ce = bf16_floor_code(e);
@@ -619,21 +659,34 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     pub(crate) fn write_vertices(&self, bits: &[u64], vertices: &mut [[f32; 3]]) {
         let w = (self.g.width() as usize).max(1); // never 0; the max keeps a panic path out
         let s = self.h.scale();
-        let mut k = 0usize;
+        let mut slots = vertices.iter_mut();
         for (wi, &word) in bits.iter().enumerate() {
+            if word == 0 {
+                continue;
+            }
+            // One division per word; within the word, x and y advance incrementally.
+            let i0 = wi * 64;
+            let (mut y, mut x0) = (i0 / w, i0 % w);
             let mut b = word;
+            let mut base = 0usize; // bit offset of column x0 in this word
             while b != 0 {
-                let i = wi * 64 + b.trailing_zeros() as usize;
+                let bit = b.trailing_zeros() as usize;
                 b &= b - 1;
-                let (x, y) = ((i % w) as u32, (i / w) as u32);
-                if let Some(v) = vertices.get_mut(k) {
-                    *v = [
-                        x as f32 * s.dx,
-                        y as f32 * s.dy,
-                        self.t.local_z(x, y) + s.z_offset,
-                    ];
+                let mut x = x0 + (bit - base);
+                while x >= w {
+                    // Bounded: at most 64 / w + 1 row changes per word.
+                    base += w - x0;
+                    x0 = 0;
+                    y += 1;
+                    x = bit - base;
                 }
-                k += 1;
+                let Some(v) = slots.next() else { return };
+                let (xu, yu) = (x as u32, y as u32);
+                *v = [
+                    xu as f32 * s.dx,
+                    yu as f32 * s.dy,
+                    self.t.local_z(xu, yu) + s.z_offset,
+                ];
             }
         }
     }
@@ -735,22 +788,41 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// The per-vertex decision for in-domain vertex `m` at `level`.
     #[inline(always)]
     pub(crate) fn decide(&self, m: (i64, i64), planes: u8, level: u32) -> Decision {
-        let i = m.1 as usize * self.g.width() as usize + m.0 as usize;
-        let e = self.h.err_at(i);
-        if e == f32::INFINITY {
-            return Decision::Split(planes);
-        }
-        let Some(v) = self.view else {
-            return if e > self.max_error {
-                Decision::Split(planes)
-            } else {
-                Decision::Keep
-            };
+        let (e, z, r) = match self.h.errors {
+            ErrorStore::Records(recs, layout) => {
+                // One 8-byte load: error, height and radius together.
+                let k = record_index(layout, &self.g, m.0 as u64, m.1 as u64);
+                let Some(rec) = recs.get(k) else {
+                    return Decision::Split(planes);
+                };
+                let e = rec.error_value();
+                if e == f32::INFINITY {
+                    return Decision::Split(planes);
+                }
+                if self.view.is_none() {
+                    return self.decide_vi(e, planes);
+                }
+                (e, rec.z as f64, rec.radius_value() as f64)
+            }
+            _ => {
+                let i = m.1 as usize * self.g.width() as usize + m.0 as usize;
+                let e = self.h.err_at(i);
+                if e == f32::INFINITY {
+                    return Decision::Split(planes);
+                }
+                if self.view.is_none() {
+                    return self.decide_vi(e, planes);
+                }
+                let z = self.t.local_z(m.0 as u32, m.1 as u32) as f64;
+                (e, z, self.h.radius_at(i, level) as f64)
+            }
         };
-        let z = self.t.local_z(m.0 as u32, m.1 as u32) as f64;
+        let Some(v) = self.view else {
+            return self.decide_vi(e, planes);
+        };
         let mut planes = planes;
         if planes != 0 && level < v.lazy_from {
-            match self.cull(&v, m, z, i, level, planes) {
+            match self.cull(&v, m, z, r, planes) {
                 Some(p) => planes = p,
                 None => return Decision::Cull,
             }
@@ -763,13 +835,13 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 let dx = v.eye[0] - m.0 as f64 * s.dx as f64;
                 let dy = v.eye[1] - m.1 as f64 * s.dy as f64;
                 let dz = v.eye[2] - z;
-                let reach = ef * v.kappa_over_tau + self.h.radius_at(i, level) as f64;
+                let reach = ef * v.kappa_over_tau + r;
                 ef > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz
             } else {
                 ef > 0.0
             }
         } else {
-            ef * v.kappa > v.tau * self.distance(&v, [m.0, m.1], z, i, level)
+            ef * v.kappa > v.tau * self.distance(&v, [m.0, m.1], z, r)
         };
         if active {
             Decision::Split(planes)
@@ -778,12 +850,20 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         }
     }
 
+    #[inline(always)]
+    fn decide_vi(&self, e: f32, planes: u8) -> Decision {
+        if e > self.max_error {
+            Decision::Split(planes)
+        } else {
+            Decision::Keep
+        }
+    }
+
     /// Distance from the eye to the nearest point of the vertex's bounding volume (0 inside).
     #[inline(always)]
-    fn distance(&self, v: &ViewData, m: [i64; 2], z: f64, i: usize, level: u32) -> f64 {
+    fn distance(&self, v: &ViewData, m: [i64; 2], z: f64, r: f64) -> f64 {
         let s = self.h.scale();
         let (px, py) = (m[0] as f64 * s.dx as f64, m[1] as f64 * s.dy as f64);
-        let r = self.h.radius_at(i, level) as f64;
         let (dx, dy) = (v.eye[0] - px, v.eye[1] - py);
         if self.h.spheres() {
             let dz = v.eye[2] - z;
@@ -798,18 +878,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// Tests the volume against the active planes: `None` if outside one, else the planes the
     /// volume still crosses.
     #[inline(always)]
-    fn cull(
-        &self,
-        v: &ViewData,
-        m: (i64, i64),
-        z: f64,
-        i: usize,
-        level: u32,
-        planes: u8,
-    ) -> Option<u8> {
+    fn cull(&self, v: &ViewData, m: (i64, i64), z: f64, r: f64, planes: u8) -> Option<u8> {
         let s = self.h.scale();
         let (px, py) = (m.0 as f64 * s.dx as f64, m.1 as f64 * s.dy as f64);
-        let r = self.h.radius_at(i, level) as f64;
         let mut out = planes;
         for (k, p) in v.planes.iter().enumerate() {
             if planes & (1 << k) == 0 {
@@ -925,6 +996,102 @@ pub(crate) fn rank(bits: &[u64], prefix: &[u64], i: usize) -> u32 {
     let b = bits.get(w).copied().unwrap_or(0);
     let p = prefix.get(w).copied().unwrap_or(0);
     (p + (b & ((1u64 << (i & 63)) - 1)).count_ones() as u64) as u32
+}
+
+/// Triangles written into a caller buffer (while there is room), counted.
+struct TriOut<'o> {
+    out: &'o mut [[u32; 3]],
+    n: usize,
+}
+
+impl TriOut<'_> {
+    #[inline(always)]
+    fn put(&mut self, t: [u32; 3]) {
+        if let Some(o) = self.out.get_mut(self.n) {
+            *o = t;
+        }
+        self.n += 1;
+    }
+}
+
+/// View-independent traversal of a square grid (`(2^k+1)^2`, fewer than `2^32` samples) driven
+/// by the bitmap of kept vertices. A vertex travels as one `u64`: its row-major grid index in
+/// the low 32 bits and its rank (vertex number) in the high 32 bits; a midpoint's index is the
+/// mean of its hypotenuse ends' indices, and each rank is computed when the vertex is split off.
+struct ViSquare<'a, 'o> {
+    bits: &'a [u64],
+    prefix: &'a [u64],
+    out: TriOut<'o>,
+}
+
+const IDX: u64 = 0xffff_ffff;
+
+impl ViSquare<'_, '_> {
+    /// Packs grid index `i` with its rank.
+    #[inline(always)]
+    fn vertex(&self, i: u64) -> u64 {
+        let w = (i >> 6) as usize;
+        let word = self.bits.get(w).copied().unwrap_or(0);
+        let below = word & ((1u64 << (i & 63)) - 1);
+        let r = self.prefix.get(w).copied().unwrap_or(0) + below.count_ones() as u64;
+        (i & IDX) | (r << 32)
+    }
+
+    /// The split vertex of hypotenuse `l-r` if it is kept.
+    #[inline(always)]
+    fn split(&self, l: u64, r: u64) -> Option<u64> {
+        let im = ((l & IDX) + (r & IDX)) >> 1;
+        let word = self.bits.get((im >> 6) as usize).copied().unwrap_or(0);
+        if (word >> (im & 63)) & 1 == 0 {
+            return None;
+        }
+        let below = word & ((1u64 << (im & 63)) - 1);
+        let p = self.prefix.get((im >> 6) as usize).copied().unwrap_or(0);
+        Some(im | ((p + below.count_ones() as u64) << 32))
+    }
+
+    #[inline(always)]
+    fn put(&mut self, a: u64, b: u64, c: u64) {
+        self.out
+            .put([(a >> 32) as u32, (b >> 32) as u32, (c >> 32) as u32]);
+    }
+
+    /// Triangle `(l, r, a)` whose split vertex is `depth` levels above the leaves. Recursion
+    /// depth at most `levels() <= 60`.
+    fn walk(&mut self, l: u64, r: u64, a: u64, depth: u32) {
+        let m = match self.split(l, r) {
+            Some(m) if depth > 0 => m,
+            _ => return self.put(l, r, a),
+        };
+        match depth {
+            1 => {
+                // The children are leaf cells: emit them without recursing.
+                self.put(a, l, m);
+                self.put(r, a, m);
+            }
+            2 => {
+                // The two finest levels inline (most triangles of a fine mesh are there).
+                self.last(a, l, m);
+                self.last(r, a, m);
+            }
+            _ => {
+                self.walk(a, l, m, depth - 1);
+                self.walk(r, a, m, depth - 1);
+            }
+        }
+    }
+
+    /// [`Self::walk`] at `depth == 1`.
+    #[inline(always)]
+    fn last(&mut self, l: u64, r: u64, a: u64) {
+        match self.split(l, r) {
+            Some(m) => {
+                self.put(a, l, m);
+                self.put(r, a, m);
+            }
+            None => self.put(l, r, a),
+        }
+    }
 }
 
 struct MarkSink<'a> {

@@ -1,0 +1,81 @@
+//! Quick refinement timings on the bundled Puget Sound DEM, fastest of `RUNS` (default 30) runs
+//! per case (the fastest run is the least disturbed on a shared machine): view-independent
+//! extraction at E = 5 and 50 m and view-dependent refinement with culling at 0.5, 1 and 4 px,
+//! every layout.
+//!
+//! `cargo run --release -p relief-benches --example refine_probe`
+
+use relief_core::glam::Vec3;
+use relief_core::refine::{
+    hierarchy_len, pack_records, preprocess, preprocess_compact, records_len, scratch_len,
+    triangle_bound, Criterion, RecordLayout, Refiner, VertexRecord, View,
+};
+use relief_core::{Camera, Heightfield};
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Instant;
+
+fn main() {
+    let runs: usize = std::env::var("RUNS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(30);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
+    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
+    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    let hf: Heightfield<'_, f32> = dem.heightfield().unwrap();
+    let (w, h) = (dem.width, dem.height);
+    let n = hierarchy_len(w, h);
+    let (mut ef, mut rf) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let full = preprocess(&hf, &mut ef, &mut rf).unwrap();
+    let mut ec = vec![0u16; n];
+    let compact = preprocess_compact(&hf, &mut ec).unwrap();
+    let mut rl = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Linear)];
+    let lin = pack_records(&full, &hf, RecordLayout::Linear, &mut rl).unwrap();
+    let mut ri = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Interleaved)];
+    let il = pack_records(&full, &hf, RecordLayout::Interleaved, &mut ri).unwrap();
+    let mut scratch = vec![0u64; scratch_len(w, h)];
+    let mut verts = vec![[0.0f32; 3]; n];
+    let mut tris = vec![[0u32; 3]; triangle_bound(w, h)];
+    let cam = Camera::new(
+        Vec3::new(112_000.0, 82_000.0, 3_000.0),
+        Vec3::new(82_000.0, 82_000.0, 0.0),
+        60.0,
+        1280,
+        720,
+    )
+    .unwrap();
+    let mut cases: Vec<(String, Criterion)> = Vec::new();
+    for e in [5.0f32, 50.0] {
+        cases.push((format!("vi E={e}"), Criterion::MaxError(e)));
+    }
+    for tau in [0.5f32, 1.0, 4.0] {
+        cases.push((
+            format!("vd tau={tau}"),
+            Criterion::View(View::new(&cam, tau).unwrap()),
+        ));
+    }
+    for (name, crit) in &cases {
+        for (lname, hier) in [
+            ("full", &full),
+            ("compact", &compact),
+            ("rec-lin", &lin),
+            ("rec-il", &il),
+        ] {
+            let r = Refiner::new(hier, &hf, *crit).unwrap();
+            let mut best = f64::INFINITY;
+            let mut c = Default::default();
+            for _ in 0..runs {
+                let s = Instant::now();
+                c = black_box(r.triangles(&mut scratch, &mut verts, &mut tris).unwrap());
+                best = best.min(s.elapsed().as_secs_f64() * 1e3);
+            }
+            let c: relief_core::refine::FrameCounts = c;
+            println!(
+                "{name:12} {lname:8} {:>8} tris {best:8.3} ms {:7.1} M tris/s",
+                c.triangles,
+                c.triangles as f64 / best / 1e3
+            );
+        }
+    }
+}

@@ -1,0 +1,270 @@
+//! Compact 8-byte vertex records and their memory layouts for view-dependent refinement
+//! (Lindstrom & Pascucci 2001, "Visualization of large terrains made easy", section on data
+//! layout; seed 004, chapter 4.5: "store the surface vertices in an order that is close to the
+//! refinement order").
+//!
+//! A [`VertexRecord`] holds everything the per-vertex decision reads: the height (`f32`), the
+//! nested error and the nested bounding-sphere radius (both bfloat16, rounded up). One record is
+//! one load instead of three (error, radius and height arrays), and 8 bytes instead of 12.
+//!
+//! Two layouts ([`RecordLayout`]):
+//! - **Linear**: row-major, record `y * width + x`, like the heightfield.
+//! - **Interleaved**: subtree-contiguous Z-order. The `N x N` samples with `x, y < N` (`N` the
+//!   enclosing square's side) are stored in Morton order (bits of `x` and `y` interleaved), so
+//!   every aligned `2^j x 2^j` block, and with it every subtree of the bisection hierarchy below
+//!   a vertex, occupies a few contiguous runs; the square's last column and row follow. This is
+//!   the Z-order variant of SOAR's hierarchical (interleaved quadtree) indexing: the same
+//!   locality goal, with an index computed from `(x, y)` by bit interleaving instead of SOAR's
+//!   parent-to-child index arithmetic. It needs `(N + 1)^2` records, more than `width * height`
+//!   when the grid is not `(2^k + 1)^2` ([`records_len`]).
+//!
+//! Quantising radii up breaks exact sphere nesting (a parent's rounded radius can fall short of a
+//! child's rounded radius plus their distance), so [`pack_records`] re-nests the rounded radii
+//! bottom-up: the refinement stays crack-free and the error bound stays true.
+
+use super::grid::RefineGrid;
+use super::preprocess::{decode_bf16, encode_bf16_up, round_up};
+use super::{ErrorStore, Hierarchy};
+use crate::{Error, Terrain};
+
+/// One vertex's refinement data, 8 bytes, `bytemuck::Pod`.
+///
+/// ```
+/// use relief_core::refine::VertexRecord;
+/// assert_eq!(core::mem::size_of::<VertexRecord>(), 8);
+/// let r = VertexRecord { z: 1.5, error: 0x3f80, radius: 0x4000 };
+/// assert_eq!((r.error_value(), r.radius_value()), (1.0, 2.0));
+/// ```
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct VertexRecord {
+    /// Local height of the sample (world z without `z_offset`).
+    pub z: f32,
+    /// Nested vertical error, bfloat16 (upper 16 bits of an `f32`), rounded up; `+inf` (0x7f80)
+    /// for vertices that are always in the mesh.
+    pub error: u16,
+    /// Nested bounding-sphere radius, bfloat16, rounded up.
+    pub radius: u16,
+}
+
+impl VertexRecord {
+    /// The error as an `f32`.
+    ///
+    /// ```
+    /// let r = relief_core::refine::VertexRecord { z: 0.0, error: 0x7f80, radius: 0 };
+    /// assert_eq!(r.error_value(), f32::INFINITY);
+    /// ```
+    #[must_use]
+    pub fn error_value(&self) -> f32 {
+        decode_bf16(self.error)
+    }
+
+    /// The radius as an `f32`.
+    ///
+    /// ```
+    /// let r = relief_core::refine::VertexRecord { z: 0.0, error: 0, radius: 0x3f80 };
+    /// assert_eq!(r.radius_value(), 1.0);
+    /// ```
+    #[must_use]
+    pub fn radius_value(&self) -> f32 {
+        decode_bf16(self.radius)
+    }
+}
+
+/// Order of the records in memory.
+///
+/// ```
+/// use relief_core::refine::RecordLayout;
+/// assert_eq!(RecordLayout::default(), RecordLayout::Interleaved);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RecordLayout {
+    /// Row-major, `y * width + x`.
+    Linear,
+    /// Subtree-contiguous Z-order (Morton) over the enclosing square (default).
+    #[default]
+    Interleaved,
+}
+
+/// Number of records [`pack_records`] needs: `width * height` (linear) or `(N + 1)^2`
+/// (interleaved, `N` the enclosing square's side); 0 for grids [`RefineGrid::new`] rejects.
+///
+/// ```
+/// use relief_core::refine::{records_len, RecordLayout};
+/// assert_eq!(records_len(1025, 1025, RecordLayout::Interleaved), 1025 * 1025);
+/// assert_eq!(records_len(1000, 600, RecordLayout::Linear), 600_000);
+/// assert_eq!(records_len(1000, 600, RecordLayout::Interleaved), 1025 * 1025);
+/// ```
+#[must_use]
+pub fn records_len(width: u32, height: u32, layout: RecordLayout) -> usize {
+    let Ok(g) = RefineGrid::new(width, height) else {
+        return 0;
+    };
+    match layout {
+        RecordLayout::Linear => g.len(),
+        RecordLayout::Interleaved => {
+            let n = g.side() as usize + 1;
+            n.saturating_mul(n)
+        }
+    }
+}
+
+/// Spreads the low 32 bits of `v` to the even bits of a `u64`.
+#[inline(always)]
+fn spread(v: u64) -> u64 {
+    let mut v = v & 0xffff_ffff;
+    v = (v | (v << 16)) & 0x0000_ffff_0000_ffff;
+    v = (v | (v << 8)) & 0x00ff_00ff_00ff_00ff;
+    v = (v | (v << 4)) & 0x0f0f_0f0f_0f0f_0f0f;
+    v = (v | (v << 2)) & 0x3333_3333_3333_3333;
+    (v | (v << 1)) & 0x5555_5555_5555_5555
+}
+
+/// Record index of grid point `(x, y)` (inside the grid) for a layout.
+#[inline(always)]
+pub(crate) fn record_index(layout: RecordLayout, g: &RefineGrid, x: u64, y: u64) -> usize {
+    match layout {
+        RecordLayout::Linear => (y * g.width() as u64 + x) as usize,
+        RecordLayout::Interleaved => {
+            let n = g.side() as u64;
+            if x < n && y < n {
+                (spread(x) | (spread(y) << 1)) as usize
+            } else if x == n {
+                (n * n + y) as usize
+            } else {
+                (n * n + n + 1 + x) as usize
+            }
+        }
+    }
+}
+
+/// Packs a preprocessed hierarchy and its terrain into [`VertexRecord`]s in `layout` order
+/// (`out` at least [`records_len`] long) and returns a [`Hierarchy`] that refines from the
+/// records alone (heights included), usable with [`Refiner`](super::Refiner) like any other.
+///
+/// Errors are `hierarchy`'s rounded up to bfloat16 (still nested and still a true bound);
+/// radii are `hierarchy`'s spheres (or level circles for the compact layout) rounded up and
+/// re-nested so that each sphere contains its children's rounded spheres. Records that belong
+/// to no grid sample (interleaved layout of a grid smaller than its square) are zeroed. The
+/// mesh of a frame is the same for both layouts.
+///
+/// ```
+/// use relief_core::refine::{pack_records, preprocess, records_len, scratch_len};
+/// use relief_core::refine::{Criterion, RecordLayout, Refiner, VertexRecord};
+/// use relief_core::Heightfield;
+/// let s: Vec<f32> = (0..81).map(|i| ((i * 37) % 11) as f32).collect();
+/// let hf = Heightfield::new(&s, 9, 9).unwrap();
+/// let (mut e, mut r) = (vec![0.0; 81], vec![0.0; 81]);
+/// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+/// let mut rec = vec![VertexRecord::default(); records_len(9, 9, RecordLayout::Interleaved)];
+/// let packed = pack_records(&h, &hf, RecordLayout::Interleaved, &mut rec).unwrap();
+/// assert_eq!(packed.bytes_per_vertex(), 8);
+/// assert!(packed.error(4, 4).unwrap() >= h.error(4, 4).unwrap());
+/// let rf = Refiner::new(&packed, &hf, Criterion::MaxError(2.0)).unwrap();
+/// assert!(rf.count(&mut vec![0; scratch_len(9, 9)]).unwrap().triangles > 2);
+/// ```
+pub fn pack_records<'a, T: Terrain>(
+    hierarchy: &Hierarchy<'_>,
+    terrain: &T,
+    layout: RecordLayout,
+    out: &'a mut [VertexRecord],
+) -> Result<Hierarchy<'a>, Error> {
+    let g = hierarchy.grid();
+    if terrain.width() != g.width() || terrain.height() != g.height() {
+        return Err(Error::LengthMismatch {
+            expected: g.len(),
+            actual: terrain.width() as usize * terrain.height() as usize,
+        });
+    }
+    let need = records_len(g.width(), g.height(), layout);
+    if out.len() < need {
+        return Err(Error::BufferTooSmall {
+            needed: need,
+            actual: out.len(),
+        });
+    }
+    if layout == RecordLayout::Interleaved && need != g.len() {
+        out.iter_mut()
+            .take(need)
+            .for_each(|r| *r = VertexRecord::default());
+    }
+    let (w, h) = (g.width() as u64, g.height() as u64);
+    let s = terrain.scale();
+    let pos = |x: u64, y: u64| -> [f64; 3] {
+        [
+            x as f64 * s.dx as f64,
+            y as f64 * s.dy as f64,
+            terrain.local_z(x as u32, y as u32) as f64,
+        ]
+    };
+    // Corners and heights first: every in-domain sample.
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            if let Some(r) = out.get_mut(record_index(layout, &g, x, y)) {
+                *r = VertexRecord {
+                    z: terrain.local_z(x as u32, y as u32),
+                    error: encode_bf16_up(hierarchy.err_at(i)),
+                    radius: 0x7f80,
+                };
+            }
+        }
+    }
+    // Radii bottom-up: half-size 1 first; edges of half-size s before the centres of the same
+    // half-size (a centre's children are edges of its half-size, an edge's children are centres
+    // of half its size).
+    let side = g.side() as u64;
+    let mut hs = 1u64;
+    while hs < side {
+        for (x0, y0) in [(hs, 0), (0, hs), (hs, hs)] {
+            let mut y = y0;
+            while y < h {
+                let mut x = x0;
+                while x < w {
+                    let (xu, yu) = (x as u32, y as u32);
+                    let Some(level) = g.level(xu, yu) else {
+                        x += 2 * hs;
+                        continue;
+                    };
+                    let i = (y * w + x) as usize;
+                    let p = pos(x, y);
+                    let mut rad = hierarchy.radius_at(i, level) as f64;
+                    for &(cx, cy) in g.children(xu, yu).iter().flatten() {
+                        if g.in_domain(cx, cy) {
+                            let (cx, cy) = (cx as u64, cy as u64);
+                            let rc = out
+                                .get(record_index(layout, &g, cx, cy))
+                                .map_or(f64::INFINITY, |r| r.radius_value() as f64);
+                            let c = pos(cx, cy);
+                            let d = libm::sqrt(
+                                (p[0] - c[0]) * (p[0] - c[0])
+                                    + (p[1] - c[1]) * (p[1] - c[1])
+                                    + (p[2] - c[2]) * (p[2] - c[2]),
+                            );
+                            rad = rad.max((d + rc) * (1.0 + RENEST_MARGIN));
+                        }
+                    }
+                    if let Some(r) = out.get_mut(record_index(layout, &g, x, y)) {
+                        r.radius = encode_bf16_up(round_up(rad));
+                    }
+                    x += 2 * hs;
+                }
+                y += 2 * hs;
+            }
+        }
+        hs *= 2;
+    }
+    let (z_min, z_max) = hierarchy.z_range();
+    let out: &'a [VertexRecord] = out;
+    Ok(Hierarchy::assemble(
+        g,
+        terrain.scale(),
+        ErrorStore::Records(out, layout),
+        None,
+        z_min,
+        z_max,
+    ))
+}
+
+/// Relative inflation when re-nesting rounded radii (floating point).
+const RENEST_MARGIN: f64 = 1.0 / (1u64 << 20) as f64;

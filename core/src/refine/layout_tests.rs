@@ -1,0 +1,199 @@
+//! Tests of the 8-byte vertex records and their layouts (std only in tests).
+
+use super::tests::{list, Mesh};
+use super::*;
+use crate::{Camera, Heightfield, Scale, Terrain};
+use glam::Vec3;
+use std::collections::BTreeSet;
+use std::vec;
+use std::vec::Vec;
+
+fn grid(w: u32, h: u32, seed: u64, amp: f32) -> Vec<f32> {
+    let mut s = seed | 1;
+    (0..w * h)
+        .map(|_| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            ((s >> 11) % 1000) as f32 / 1000.0 * amp
+        })
+        .collect()
+}
+
+fn area(m: &Mesh) -> f64 {
+    m.t.iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| m.v[i as usize].map(|x| x as f64));
+            0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+        })
+        .sum()
+}
+
+fn vertex_set(m: &Mesh) -> BTreeSet<[u32; 2]> {
+    m.v.iter()
+        .map(|v| [v[0].to_bits(), v[1].to_bits()])
+        .collect()
+}
+
+fn cameras() -> [Camera; 3] {
+    [
+        Camera::new(
+            Vec3::new(-50.0, -50.0, 200.0),
+            Vec3::new(320.0, 240.0, 0.0),
+            60.0,
+            320,
+            240,
+        )
+        .unwrap(),
+        Camera::new(
+            Vec3::new(200.0, 150.0, 40.0),
+            Vec3::new(600.0, 300.0, 10.0),
+            60.0,
+            320,
+            240,
+        )
+        .unwrap(),
+        Camera::new(
+            Vec3::new(150.0, 140.0, 5.0),
+            Vec3::new(0.0, 140.0, 5.0),
+            60.0,
+            320,
+            240,
+        )
+        .unwrap(),
+    ]
+}
+
+/// Both layouts give the same mesh (vertices and triangles, in order), view-independent and
+/// view-dependent with and without culling, on square and non-square grids.
+#[test]
+fn same_mesh_for_both_layouts() {
+    for (w, h, seed) in [(65, 65, 3), (37, 29, 5), (2, 2, 7), (3, 3, 9), (64, 17, 11)] {
+        let s = grid(w, h, seed, 30.0);
+        let sc = Scale::default().with_spacing(10.0, 10.0);
+        let hf = Heightfield::with_scale(&s, w, h, sc).unwrap();
+        let n = hierarchy_len(w, h);
+        let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+        let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+        let mut lin = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Linear)];
+        let mut il = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Interleaved)];
+        let a = pack_records(&full, &hf, RecordLayout::Linear, &mut lin).unwrap();
+        let b = pack_records(&full, &hf, RecordLayout::Interleaved, &mut il).unwrap();
+        for y in 0..h {
+            for x in 0..w {
+                assert_eq!(a.error(x, y), b.error(x, y));
+                assert_eq!(a.radius(x, y), b.radius(x, y));
+            }
+        }
+        let mut crits = vec![Criterion::MaxError(0.0), Criterion::MaxError(5.0)];
+        for cam in cameras() {
+            for (lazy, cull) in [(0, true), (4, true), (0, false)] {
+                let v = View::new(&cam, 1.5)
+                    .unwrap()
+                    .with_lazy_levels(lazy)
+                    .with_culling(cull);
+                crits.push(Criterion::View(v));
+            }
+        }
+        let mut nontrivial = 0;
+        for c in crits {
+            let (ma, mb) = (list(&a, &hf, c), list(&b, &hf, c));
+            assert_eq!(ma.v, mb.v, "{w}x{h} {c:?}");
+            assert_eq!(ma.t, mb.t, "{w}x{h} {c:?}");
+            nontrivial += usize::from(ma.t.len() > 2);
+        }
+        assert!(w < 4 || nontrivial > 3, "{w}x{h}: too few refined meshes");
+    }
+}
+
+/// Records round errors and radii up: the record mesh refines the `f32` mesh (its vertex set
+/// contains the other's), stays counter-clockwise, covers the domain, and keeps the error bound.
+#[test]
+fn records_refine_the_f32_mesh_and_keep_the_bound() {
+    let (w, h) = (65, 49);
+    let s = grid(w, h, 21, 40.0);
+    let sc = Scale::default().with_spacing(10.0, 10.0);
+    let hf = Heightfield::with_scale(&s, w, h, sc).unwrap();
+    let n = hierarchy_len(w, h);
+    let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+    let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+    let mut il = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Interleaved)];
+    let rec = pack_records(&full, &hf, RecordLayout::Interleaved, &mut il).unwrap();
+    let domain = (w - 1) as f64 * 10.0 * (h - 1) as f64 * 10.0;
+    let mut crits = vec![Criterion::MaxError(1.0), Criterion::MaxError(8.0)];
+    for cam in cameras() {
+        crits.push(Criterion::View(
+            View::new(&cam, 1.0).unwrap().with_culling(false),
+        ));
+    }
+    for c in crits {
+        let (mf, mr) = (list(&full, &hf, c), list(&rec, &hf, c));
+        assert!(vertex_set(&mr).is_superset(&vertex_set(&mf)), "{c:?}");
+        assert!((area(&mr) - domain).abs() < 1e-6 * domain, "{c:?}");
+        if let Criterion::MaxError(e) = c {
+            let mut cov = vec![0; coverage_len(w, h)];
+            let measured = vertical_error(&hf, &mr.v, &mr.t, &mut cov).unwrap();
+            assert!(measured <= e as f64, "{measured} > {e}");
+        }
+    }
+}
+
+/// Re-nested rounded radii: every sphere contains its in-domain children's spheres.
+#[test]
+fn rounded_radii_stay_nested() {
+    let (w, h) = (33, 33);
+    let s = grid(w, h, 5, 50.0);
+    let sc = Scale::default().with_spacing(3.0, 3.0);
+    let hf = Heightfield::with_scale(&s, w, h, sc).unwrap();
+    let n = hierarchy_len(w, h);
+    let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+    let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+    let mut lin = vec![VertexRecord::default(); n];
+    let rec = pack_records(&full, &hf, RecordLayout::Linear, &mut lin).unwrap();
+    let g = rec.grid();
+    let mut checked = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let Some(rp) = rec.radius(x, y) else { continue };
+            if g.level(x, y).is_none() {
+                continue;
+            }
+            assert!(rp >= full.radius(x, y).unwrap());
+            let p = hf.position(x, y).unwrap().as_dvec3();
+            for (cx, cy) in g.children(x, y).into_iter().flatten() {
+                if !g.in_domain(cx, cy) {
+                    continue;
+                }
+                let (cx, cy) = (cx as u32, cy as u32);
+                let c = hf.position(cx, cy).unwrap().as_dvec3();
+                let rc = rec.radius(cx, cy).unwrap() as f64;
+                assert!(
+                    rp as f64 >= (p - c).length() + rc,
+                    "({x},{y}) -> ({cx},{cy})"
+                );
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 1000);
+}
+
+#[test]
+fn bad_inputs_are_errors() {
+    let s = grid(9, 9, 1, 1.0);
+    let hf = Heightfield::new(&s, 9, 9).unwrap();
+    let (mut er, mut ra) = (vec![0.0; 81], vec![0.0; 81]);
+    let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+    let mut short = vec![VertexRecord::default(); 80];
+    assert_eq!(
+        pack_records(&full, &hf, RecordLayout::Interleaved, &mut short).unwrap_err(),
+        crate::Error::BufferTooSmall {
+            needed: 81,
+            actual: 80
+        }
+    );
+    let other = Heightfield::new(&s[..72], 9, 8).unwrap();
+    let mut buf = vec![VertexRecord::default(); 81];
+    assert!(pack_records(&full, &other, RecordLayout::Linear, &mut buf).is_err());
+    assert_eq!(records_len(1, 5, RecordLayout::Linear), 0);
+}
