@@ -284,8 +284,9 @@ fn every_subcommand_rejects_bad_input_in_one_line() {
         with(&get("render"), "--size", "100000x100000"),
         with(&get("render"), "--fov", "-5"),
         with(&get("render"), "--effects", "sparkles"),
-        with(&get("render"), "--effects", "detail"), // GPU-only effect on the CPU backend
-        with(&get("render"), "--backend", "gpu"),    // no adapter (VK_ICD_FILENAMES points nowhere)
+        with(&get("render"), "--effects", "depth"), // GPU-only effect on the CPU backend
+        with(&get("render"), "--method", "cascades"), // GPU-only method on the CPU backend
+        with(&get("render"), "--backend", "gpu"),   // no adapter (VK_ICD_FILENAMES points nowhere)
         with(&get("render"), "--out", unwritable),
         with(&get("diagram"), "--out", unwritable),
         with(&get("report"), "--out", "/dev/null/rep"),

@@ -255,7 +255,7 @@ fn no_adapter_unknown_effects_and_silhouette_are_one_line_errors() {
         assert_one_line_error(&out, "take only the depth output effect");
     }
     let mut cpu = args.clone();
-    cpu.extend_from_slice(&["--backend", "cpu", "--effects", "water"]);
+    cpu.extend_from_slice(&["--backend", "cpu", "--effects", "depth"]);
     assert_one_line_error(&relief(&cpu, &[]), "needs --backend gpu");
     let mut ws = args.clone();
     ws.extend_from_slice(&["--water-surface", "/nonexistent.f32"]);
@@ -309,4 +309,88 @@ fn water_surface_file_is_rendered_and_checked() {
         return;
     }
     assert_one_line_error(&out, "expected");
+}
+
+fn read_png(path: &Path) -> Vec<[u8; 4]> {
+    let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
+    let mut reader = dec.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    buf[..info.buffer_size()]
+        .chunks_exact(4)
+        .map(|c| [c[0], c[1], c[2], c[3]])
+        .collect()
+}
+
+/// Pixels where both depths miss, or both hit within `rel` of each other.
+fn same_depth(a: &[f32], b: &[f32], rel: f32) -> usize {
+    a.iter()
+        .zip(b)
+        .filter(|(x, y)| (x.is_infinite() && y.is_infinite()) || (*x - *y).abs() <= rel * y.abs())
+        .count()
+}
+
+#[test]
+fn cpu_backend_renders_deformations_water_and_detail_like_the_gpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    let (_, plain) = render(p, "cpu_plain", &["--backend", "cpu"]).unwrap();
+    let fx = ["--effects", "deformations,water"];
+    let (cpu, cd) = render(p, "cpu_fx", &[&["--backend", "cpu"][..], &fx[..]].concat()).unwrap();
+    assert_eq!(
+        pass_names(&cpu, "passes"),
+        ["deform", "maxmip_build", "trace"]
+    );
+    // The craters and the water really moved the surface.
+    let moved = plain.len() - same_depth(&cd, &plain, 1e-3);
+    assert!(moved > plain.len() / 50, "only {moved} pixels changed");
+    // Detail changes the colour only.
+    let (_, dd) = render(
+        p,
+        "cpu_detail",
+        &["--backend", "cpu", "--effects", "detail"],
+    )
+    .unwrap();
+    assert_eq!(dd, plain);
+    let (cpu_plain_png, cpu_detail_png) = (
+        read_png(&p.join("cpu_plain.png")),
+        read_png(&p.join("cpu_detail.png")),
+    );
+    assert!(
+        cpu_plain_png
+            .iter()
+            .zip(&cpu_detail_png)
+            .filter(|(a, b)| a != b)
+            .count()
+            > 1000
+    );
+    let Some((gpu, gd)) = render(p, "gpu_fx", &fx) else {
+        return;
+    };
+    assert_eq!(
+        pass_names(&gpu, "passes"),
+        ["deform", "maxmip_build", "raycast"]
+    );
+    let same = same_depth(&gd, &cd, 1e-3);
+    assert!(
+        same as f64 >= 0.999 * cd.len() as f64,
+        "deformations + water: CPU and GPU depth agree on {same} of {}",
+        cd.len()
+    );
+    // Without lighting the colour is the height ramp times the detail texel: the backends
+    // agree to a few levels nearly everywhere.
+    if render(p, "gpu_detail", &["--effects", "detail"]).is_none() {
+        return;
+    }
+    let gpu_png = read_png(&p.join("gpu_detail.png"));
+    let close = gpu_png
+        .iter()
+        .zip(&cpu_detail_png)
+        .filter(|(a, b)| a.iter().zip(b.iter()).all(|(x, y)| x.abs_diff(*y) <= 3))
+        .count();
+    assert!(
+        close as f64 >= 0.99 * gpu_png.len() as f64,
+        "detail colours: {close} of {} within 3 levels",
+        gpu_png.len()
+    );
 }

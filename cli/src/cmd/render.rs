@@ -14,6 +14,7 @@ use relief_core::ray::{MarchOptions, MaxMip, Ray, RayTracer};
 use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner, View};
 use relief_core::{Camera, Heightfield, Surface, Terrain};
 use relief_wgpu::mesh::{depth_to_distance, MeshStyle};
+use relief_wgpu::terrain::Crater;
 use relief_wgpu::{DepthTarget, Effect, MeshPass, Renderer, Scene};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -267,21 +268,7 @@ fn render_gpu(
         );
     }
     if effects.contains(&Effect::Deformations) {
-        // Two craters in the middle of the map, a tenth and a twentieth of it across.
-        let (cw, ch) = (hf.width() as f32, hf.height() as f32);
-        let depth = 0.2 * z_span(hf).max(1.0);
-        scene = scene.with_craters(&[
-            relief_wgpu::terrain::Crater {
-                center: [0.5 * cw, 0.5 * ch],
-                radius: 0.1 * cw,
-                depth,
-            },
-            relief_wgpu::terrain::Crater {
-                center: [0.6 * cw, 0.4 * ch],
-                radius: 0.05 * cw,
-                depth,
-            },
-        ]);
+        scene = scene.with_craters(&craters(hf));
     }
     if let Some(path) = &a.water_surface {
         let bytes =
@@ -309,8 +296,7 @@ fn render_gpu(
     }
     if effects.contains(&Effect::Water) {
         let s = *scene.shading();
-        let level = hf.scale().z_offset + local_min(hf) + 0.15 * z_span(hf);
-        scene = scene.with_shading(s.with_water_level(level));
+        scene = scene.with_shading(s.with_water_level(water_level(hf)));
     }
     let mut r = Renderer::new(&gpu.device, &gpu.queue, hf, scene)?;
     let mut frames = Vec::new();
@@ -345,6 +331,30 @@ fn render_gpu(
         setup,
         passes: medians(&frames),
     })
+}
+
+/// The craters of the deformations effect (both backends): two in the middle of the map, a
+/// tenth and a twentieth of it across, a fifth of the height range deep.
+fn craters(hf: &Heightfield<'_, f32>) -> Vec<Crater> {
+    let (cw, ch) = (hf.width() as f32, hf.height() as f32);
+    let depth = 0.2 * z_span(hf).max(1.0);
+    vec![
+        Crater {
+            center: [0.5 * cw, 0.5 * ch],
+            radius: 0.1 * cw,
+            depth,
+        },
+        Crater {
+            center: [0.6 * cw, 0.4 * ch],
+            radius: 0.05 * cw,
+            depth,
+        },
+    ]
+}
+
+/// The water plane of the water effect (world z; both backends): 15 % up the height range.
+fn water_level(hf: &Heightfield<'_, f32>) -> f32 {
+    hf.scale().z_offset + local_min(hf) + 0.15 * z_span(hf)
 }
 
 fn z_span(hf: &Heightfield<'_, f32>) -> f32 {
@@ -382,34 +392,70 @@ fn albedo(s: f32) -> Vec3 {
     }
 }
 
-/// The CPU backend: max-mip (or march) tracing with lighting, shadows and fog. Also the report's
-/// fallback for effect costs where no GPU adapter exists.
+/// The CPU backend: max-mip (or march) tracing with the effects that need only core functions
+/// and the GPU shader's CPU references: lighting (from the hit triangle's normal; the GPU
+/// samples a Sobel normal map), shadows, fog, the detail map's colour, the water plane and
+/// deformations (the craters applied to the heights with [`Crater::lowering`], then traced).
+/// Not on the CPU: a water *surface* file, depth output (a GPU depth buffer for meshes),
+/// silhouette partitioning, the cascade ray cast and the mesh method (it would need a CPU
+/// rasteriser). Also the report's fallback for effect costs where no GPU adapter exists.
 pub(crate) fn render_cpu(
     hf: &Heightfield<'_, f32>,
     camera: &Camera,
     march: bool,
     effects: &[Effect],
 ) -> CliResult<Rendered> {
-    if let Some(e) = effects
-        .iter()
-        .find(|e| !matches!(e, Effect::Lighting | Effect::Shadows | Effect::Fog))
-    {
+    if let Some(e) = effects.iter().find(|e| **e == Effect::DepthOutput) {
         return Err(CliError(format!(
-            "effect '{}' needs --backend gpu (the CPU renders lighting, shadows, fog)",
+            "effect '{}' needs --backend gpu (the CPU renders lighting, shadows, detail, deformations, fog, water)",
             e.name()
         )));
     }
+    let has = |e: Effect| effects.contains(&e);
     let (w, h) = (camera.width, camera.height);
     let t0 = Instant::now();
+    let scale = hf.scale();
+    let (base_lo, base_hi) = (local_min(hf), local_min(hf) + z_span(hf));
+    // Deformations: the craters applied to the local heights (as shaders/deform.wgsl does).
+    let mut crater_depth = 0.0f32;
+    let deformed: Option<Vec<f32>> = has(Effect::Deformations).then(|| {
+        let cs = craters(hf);
+        crater_depth = cs.iter().map(|c| c.depth.max(0.0)).sum();
+        (0..hf.height())
+            .flat_map(|y| (0..hf.width()).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                cs.iter()
+                    .fold(hf.local_z(x, y), |z, c| z - c.lowering(x as f32, y as f32))
+            })
+            .collect()
+    });
+    let dhf = match &deformed {
+        Some(v) => Heightfield::with_scale(v, hf.width(), hf.height(), scale.with_z_scale(1.0))?,
+        None => *hf,
+    };
+    let deform_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let t0 = Instant::now();
     let len =
-        MaxMip::len(hf.width(), hf.height()).ok_or_else(|| CliError("grid too small".into()))?;
+        MaxMip::len(dhf.width(), dhf.height()).ok_or_else(|| CliError("grid too small".into()))?;
     let mut buf = vec![0.0f32; len];
-    let mip = MaxMip::build(hf, &mut buf)?;
+    let mip = MaxMip::build(&dhf, &mut buf)?;
     let build_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let tracer = RayTracer::new(hf, Surface::Triangles);
-    let (zmin, zmax) = tracer.height_range();
+    let tracer = RayTracer::new(&dhf, Surface::Triangles);
+    // The GPU's colour range: the uploaded heights' range, lowered by the craters' depths.
+    let (zmin, zmax) = (base_lo - crater_depth, base_hi);
     let shading = relief_wgpu::raycast::Shading::default();
     let sun = shading.sun.normalize();
+    let detail = has(Effect::Detail).then(|| {
+        (
+            relief_wgpu::scene::procedural_detail(64, 0.01 * (base_hi - base_lo).max(1.0)),
+            64u32,
+        )
+    });
+    let water = has(Effect::Water).then(|| water_level(hf));
+    let extent = (
+        f64::from(dhf.width() - 1) * f64::from(scale.dx),
+        f64::from(dhf.height() - 1) * f64::from(scale.dy),
+    );
     let opts = MarchOptions::default();
     let trace = |ray: &Ray| -> Result<Option<relief_core::Hit>, String> {
         if march {
@@ -426,9 +472,9 @@ pub(crate) fn render_cpu(
         }
     };
     let (lit_on, shadows, fog) = (
-        effects.contains(&Effect::Lighting),
-        effects.contains(&Effect::Shadows),
-        effects.contains(&Effect::Fog),
+        has(Effect::Lighting),
+        has(Effect::Shadows),
+        has(Effect::Fog),
     );
     let t1 = Instant::now();
     let rows: Result<Vec<Vec<Pixel>>, String> = (0..h)
@@ -439,31 +485,63 @@ pub(crate) fn render_cpu(
                     let (o, d) = camera.ray(i, j);
                     let ray = Ray::new(o, d).map_err(|e| e.to_string())?;
                     let sky = Vec3::new(0.55, 0.7, 0.9);
-                    let Some(hit) = trace(&ray)? else {
-                        return Ok((f32::INFINITY, rgba(sky)));
-                    };
-                    let local = hit.position.z as f32 - hf.scale().z_offset;
-                    let mut c = albedo((local - zmin) / (zmax - zmin).max(1e-6));
-                    let mut lit = 1.0;
-                    if shadows {
-                        let lift = 1e-3 * (zmax - zmin).max(1.0);
-                        let p = hit.position.as_vec3() + Vec3::new(0.0, 0.0, lift);
-                        let sray = Ray::new(p, sun).map_err(|e| e.to_string())?;
-                        if trace(&sray)?.is_some() {
-                            lit = 0.0;
+                    let mut c = sky;
+                    let mut depth = f32::INFINITY;
+                    if let Some(hit) = trace(&ray)? {
+                        let local = hit.position.z as f32 - scale.z_offset;
+                        c = albedo((local - zmin) / (zmax - zmin).max(1e-6));
+                        if let Some((map, n)) = &detail {
+                            // shaders/raycast.wgsl: the detail texel under the hit, tiled.
+                            let gx = (hit.position.x / f64::from(scale.dx)).floor() as i64;
+                            let gy = (hit.position.y / f64::from(scale.dy)).floor() as i64;
+                            let n = i64::from(*n);
+                            let k = (gy.rem_euclid(n) * n + gx.rem_euclid(n)) as usize;
+                            let v = map.get(k).copied().unwrap_or(0.0);
+                            c *= 1.0 + (v * shading.detail_gain).clamp(-0.3, 0.3);
+                        }
+                        let mut lit = 1.0;
+                        if shadows {
+                            let lift = 1e-3 * (zmax - zmin).max(1.0);
+                            let p = hit.position.as_vec3() + Vec3::new(0.0, 0.0, lift);
+                            let sray = Ray::new(p, sun).map_err(|e| e.to_string())?;
+                            if trace(&sray)?.is_some() {
+                                lit = 0.0;
+                            }
+                        }
+                        if lit_on {
+                            let diffuse = hit.normal.dot(sun).max(0.0) * lit;
+                            c *= shading.ambient + (1.0 - shading.ambient) * diffuse;
+                        } else if shadows {
+                            c *= 0.55 + 0.45 * lit;
+                        }
+                        depth = hit.t as f32;
+                    }
+                    if let Some(level) = water {
+                        // The water plane, inside the terrain's extent, in front of the hit.
+                        let (o, d) = (o.as_dvec3(), d.as_dvec3());
+                        let level = f64::from(level);
+                        if d.z < 0.0 && o.z > level {
+                            let tw = (level - o.z) / d.z;
+                            let p = o + tw * d;
+                            let inside =
+                                p.x >= 0.0 && p.y >= 0.0 && p.x <= extent.0 && p.y <= extent.1;
+                            if inside && (tw as f32) < depth {
+                                let below = if depth.is_finite() {
+                                    ((depth - tw as f32) * 0.002).min(1.0)
+                                } else {
+                                    0.0
+                                };
+                                let wc = shading.water_color;
+                                c = c.lerp(wc, 0.5).lerp(wc * 0.6, below);
+                                depth = tw as f32;
+                            }
                         }
                     }
-                    if lit_on {
-                        let diffuse = hit.normal.dot(sun).max(0.0) * lit;
-                        c *= shading.ambient + (1.0 - shading.ambient) * diffuse;
-                    } else if shadows {
-                        c *= 0.55 + 0.45 * lit;
-                    }
-                    if fog {
-                        let f = 1.0 - (-shading.fog_density * hit.t as f32).exp();
+                    if fog && depth.is_finite() {
+                        let f = 1.0 - (-shading.fog_density * depth).exp();
                         c = c.lerp(shading.fog_color, f);
                     }
-                    Ok((hit.t as f32, rgba(c)))
+                    Ok((depth, rgba(c)))
                 })
                 .collect()
         })
@@ -472,9 +550,17 @@ pub(crate) fn render_cpu(
     let trace_ms = t1.elapsed().as_secs_f64() * 1e3;
     let (depth, color) = rows.into_iter().flatten().unzip();
     let mut setup = Vec::new();
-    if !march {
+    let mut passes = Vec::new();
+    if deformed.is_some() {
+        // Deformed every frame, as on the GPU.
+        passes.push(("deform".to_string(), deform_ms));
+        if !march {
+            passes.push(("maxmip_build".to_string(), build_ms));
+        }
+    } else if !march {
         setup.push(("maxmip_build".to_string(), build_ms));
     }
+    passes.push(("trace".to_string(), trace_ms));
     Ok(Rendered {
         width: w,
         height: h,
@@ -484,7 +570,7 @@ pub(crate) fn render_cpu(
         timing: "wall",
         reads_per_pixel: None,
         setup,
-        passes: vec![("trace".to_string(), trace_ms)],
+        passes,
     })
 }
 
