@@ -16,7 +16,9 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use relief_core::glam::{DVec2, Vec3};
-use relief_core::ray::{GridLine, MarchOptions, MaxMip, Ray, RayTracer, RunAccel};
+use relief_core::ray::{
+    GridLine, MarchOptions, MaxMip, Ray, RayTracer, RunAccel, Trace, PACKET_LANES,
+};
 use relief_core::{Camera, Surface};
 use std::hint::black_box;
 use std::path::Path;
@@ -417,8 +419,60 @@ fn views(lo: f32, hi: f32) -> [(&'static str, Camera); 2] {
     ]
 }
 
+/// Max-mip ray by ray (A) against the AVX-512 packet path (B) on both views, where the CPU has
+/// AVX-512; the packet results are checked to equal the scalar ones before timing.
+fn mip_table() {
+    let dem = load();
+    let hf = dem.heightfield().unwrap();
+    let tracer = RayTracer::new(&hf, Surface::Triangles);
+    let (lo, hi) = tracer.height_range();
+    let mut mbuf = vec![0.0f32; MaxMip::len(dem.width, dem.height).unwrap()];
+    let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
+    for (name, cam) in views(lo, hi) {
+        let rays = camera_rays(&cam);
+        let n = rays.len() as f64;
+        let scalar: Vec<Trace> = rays
+            .iter()
+            .map(|r| tracer.trace_maxmip(r, &mip).unwrap())
+            .collect();
+        let mut out = vec![Trace::default(); rays.len()];
+        tracer.trace_maxmip_packet(&rays, &mip, &mut out).unwrap();
+        assert_eq!(out, scalar, "packet path differs from ray by ray");
+        let mm = || {
+            rays.iter()
+                .map(|r| tracer.trace_maxmip(r, &mip).unwrap().hit.is_some() as u64)
+                .sum::<u64>()
+        };
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512dq") {
+            let mut o3 = vec![Trace::default(); rays.len()];
+            // SAFETY: AVX-512F and DQ detected above.
+            unsafe { tracer.trace_maxmip_packet_avx512(&rays, &mip, &mut o3) }.unwrap();
+            assert_eq!(o3, scalar, "AVX-512 packet path differs from ray by ray");
+            let pk3 = || {
+                // SAFETY: as above.
+                unsafe { tracer.trace_maxmip_packet_avx512(&rays, &mip, &mut o3) }.unwrap();
+                o3.iter().filter(|t| t.hit.is_some()).count() as u64
+            };
+            let (a, b, r) = interleaved(15, mm, pk3);
+            println!(
+                "| max-mip, {name} view: ray by ray (A) vs packet of {PACKET_LANES}, AVX-512 (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
+                n / a,
+                n / b
+            );
+        }
+    }
+}
+
 fn table_bench(_c: &mut Criterion) {
+    if std::env::var("RELIEF_RAYS_MIP").is_ok() {
+        mip_table();
+        return;
+    }
     table();
+    if std::env::var("RELIEF_RAYS_TABLE").is_ok() {
+        mip_table();
+    }
 }
 
 criterion_group!(benches, table_bench, traversal, tracing);

@@ -222,6 +222,17 @@ pub unsafe extern "C" fn pc_rays(
             .trace_maxmip(&ray, &m)
             .map_or(0.0, |t| t.hit.map_or(0.0, |h| h.t));
         sum += f64::from(m.node(k % 4, k, k)) + m.step_bound() as f64;
+        // The packet paths, on packets of 0 to 9 rays.
+        let rays = [ray; 9];
+        let mut out = [relief_core::ray::Trace::default(); 9];
+        let part = rays.get(..(k % 10) as usize).unwrap_or(&[]);
+        if tracer.trace_maxmip_packet(part, &m, &mut out).is_ok() {
+            sum += out.iter().map(|t| t.steps as f64).sum::<f64>();
+        }
+        #[cfg(target_arch = "x86_64")]
+        if tracer.trace_maxmip_packet_avx512(part, &m, &mut out).is_ok() {
+            sum += out.iter().map(|t| t.cells as f64).sum::<f64>();
+        }
     }
     let opts = MarchOptions::default()
         .with_samples(samples)

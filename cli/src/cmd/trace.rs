@@ -72,9 +72,19 @@ pub struct TraceArgs {
     /// Surface.
     #[arg(long, value_enum, default_value = "triangles")]
     surface: SurfaceArg,
-    /// Samples per ray for `march` (default 256).
+    /// Samples per ray for `march` (default 256; the most per ray with
+    /// --view-dependent-samples).
     #[arg(long, value_name = "N")]
     samples: Option<u32>,
+    /// `march` only: view-dependent sample counts (Kentie, section 3.4), from MIN for rays
+    /// looking straight down to --samples for horizontal rays: lerp(MIN, N, 1 - |dir.z|).
+    #[arg(long, value_name = "MIN")]
+    view_dependent_samples: Option<u32>,
+    /// Max-mip only: trace ray by ray instead of with the AVX-512 packet path (8 rays per
+    /// register) that is used where the CPU has AVX-512F and DQ (same results; for speed
+    /// comparisons).
+    #[arg(long)]
+    no_packet: bool,
     /// Worker threads (default: all cores).
     #[arg(long, value_name = "N")]
     threads: Option<usize>,
@@ -94,15 +104,29 @@ struct Stats {
     steps: u64,
     max_step_cells: f64,
     max_bracket: f64,
+    /// March samples taken over all rays (linear search, as chosen per ray).
+    march_samples: u64,
 }
 
 impl Stats {
+    /// Counts one traced ray and writes its depth.
+    fn record(&mut self, tr: &Trace, px: &mut f32) {
+        self.cells += tr.cells as u64;
+        self.steps += tr.steps as u64;
+        if let Some(hit) = tr.hit {
+            self.hits += 1;
+            let t = hit.t as f32;
+            *px = if t.is_nan() { f32::INFINITY } else { t };
+        }
+    }
+
     fn add(mut self, o: Stats) -> Stats {
         self.hits += o.hits;
         self.cells += o.cells;
         self.steps += o.steps;
         self.max_step_cells = self.max_step_cells.max(o.max_step_cells);
         self.max_bracket = self.max_bracket.max(o.max_bracket);
+        self.march_samples += o.march_samples;
         self
     }
 }
@@ -111,6 +135,39 @@ enum Accel<'a> {
     None,
     Run(RunAccel<'a>),
     Mip(Box<MaxMip<'a>>),
+}
+
+/// Whether this CPU runs the AVX-512 max-mip packet path (AVX-512F and DQ).
+fn has_avx512() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512dq") {
+        return true;
+    }
+    false
+}
+
+/// The packet variant this CPU runs: `avx512` where detected, else `portable` (ray by ray).
+fn packet_kind() -> &'static str {
+    if has_avx512() {
+        "avx512"
+    } else {
+        "portable"
+    }
+}
+
+/// Max-mip packet tracing with the best variant for this CPU (same results for every variant).
+fn trace_packet(
+    tracer: &RayTracer<'_, Heightfield<'_, f32>>,
+    rays: &[Ray],
+    mip: &MaxMip<'_>,
+    out: &mut [Trace],
+) -> Result<(), relief_core::Error> {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx512() {
+        // SAFETY: the CPU has AVX-512F and AVX-512DQ, the requirements of the `avx512` variant.
+        return unsafe { tracer.trace_maxmip_packet_avx512(rays, mip, out) };
+    }
+    tracer.trace_maxmip_packet(rays, mip, out)
 }
 
 /// Runs `relief trace`.
@@ -122,6 +179,18 @@ pub fn run(a: &TraceArgs) -> CliResult {
     }
     if a.samples.is_some() && a.method != Method::March {
         return Err(CliError("--samples only applies to --method march".into()));
+    }
+    if let Some(min) = a.view_dependent_samples {
+        if a.method != Method::March {
+            return Err(CliError(
+                "--view-dependent-samples only applies to --method march".into(),
+            ));
+        }
+        if min == 0 || min > samples {
+            return Err(CliError(format!(
+                "--view-dependent-samples must be between 1 and --samples ({samples})"
+            )));
+        }
     }
     if a.threads == Some(0) {
         return Err(CliError("--threads must be at least 1".into()));
@@ -148,11 +217,32 @@ pub fn run(a: &TraceArgs) -> CliResult {
         _ => Accel::None,
     };
     let preprocess_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let opts = MarchOptions::default().with_samples(samples);
+    let mut opts = MarchOptions::default().with_samples(samples);
+    if let Some(min) = a.view_dependent_samples {
+        opts = opts.with_view_dependent(min);
+    }
 
     let mut depth = vec![f32::INFINITY; w as usize * h as usize];
+    let packet = match (a.method, a.no_packet) {
+        (Method::Maxmip, false) => packet_kind(),
+        _ => "off",
+    };
     let trace_row = |j: usize, row: &mut [f32]| -> Result<Stats, String> {
         let mut st = Stats::default();
+        if let (Accel::Mip(mip), true) = (&accel, packet != "off") {
+            let rays = (0..row.len())
+                .map(|i| {
+                    let (o, d) = camera.ray(i as u32, j as u32);
+                    Ray::new(o, d).map_err(|e| e.to_string())
+                })
+                .collect::<Result<Vec<Ray>, String>>()?;
+            let mut traces = vec![Trace::default(); rays.len()];
+            trace_packet(&tracer, &rays, mip, &mut traces).map_err(|e| e.to_string())?;
+            for (px, tr) in row.iter_mut().zip(&traces) {
+                st.record(tr, px);
+            }
+            return Ok(st);
+        }
         for (i, px) in row.iter_mut().enumerate() {
             let (o, d) = camera.ray(i as u32, j as u32);
             let ray = Ray::new(o, d).map_err(|e| e.to_string())?;
@@ -166,6 +256,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
                 (Accel::None, Method::March) => {
                     let m = tracer.trace_march(&ray, &opts).map_err(|e| e.to_string())?;
                     st.max_step_cells = st.max_step_cells.max(m.step_cells);
+                    st.march_samples += m.samples as u64;
                     if m.trace.hit.is_some() {
                         st.max_bracket = st.max_bracket.max(m.bracket);
                     }
@@ -173,13 +264,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
                 }
                 (Accel::None, _) => tracer.trace_cell_dda(&ray),
             };
-            st.cells += tr.cells as u64;
-            st.steps += tr.steps as u64;
-            if let Some(hit) = tr.hit {
-                st.hits += 1;
-                let t = hit.t as f32;
-                *px = if t.is_nan() { f32::INFINITY } else { t };
-            }
+            st.record(&tr, px);
         }
         Ok(st)
     };
@@ -240,10 +325,21 @@ pub fn run(a: &TraceArgs) -> CliResult {
             "rays_per_s": rays_per_s,
             "cells_visited": stats.cells,
             "steps": stats.steps,
+            "packet": packet,
             "out": a.out.display().to_string(),
         });
         if a.method == Method::March {
             v["samples"] = serde_json::json!(samples);
+            v["samples_mode"] = serde_json::json!(if opts.view_dependent {
+                "view-dependent"
+            } else {
+                "fixed"
+            });
+            if opts.view_dependent {
+                v["min_samples"] = serde_json::json!(opts.min_samples);
+            }
+            v["march_samples_mean"] =
+                serde_json::json!(stats.march_samples as f64 / (rays as f64).max(1.0));
             v["march_step_cells_max"] = serde_json::json!(stats.max_step_cells);
             v["march_bracket_max"] = serde_json::json!(stats.max_bracket);
         }
@@ -258,8 +354,14 @@ pub fn run(a: &TraceArgs) -> CliResult {
         );
         if a.method == Method::March {
             text.push_str(&format!(
-                "  march    {samples} samples, step up to {:.3} cells (thinner features can be missed), bracket up to {:.3e}\n",
-                stats.max_step_cells, stats.max_bracket
+                "  march    {samples}{vd} samples, step up to {:.3} cells (thinner features can be missed), bracket up to {:.3e}\n",
+                stats.max_step_cells,
+                stats.max_bracket,
+                vd = if opts.view_dependent {
+                    format!(" (view-dependent, at least {})", opts.min_samples)
+                } else {
+                    String::new()
+                }
             ));
         }
         print_out(&text)

@@ -8,6 +8,7 @@
 //! climbs one level when it crosses into another parent. Leaves are tested exactly (the same
 //! cell test as the DDAs), so the hit equals the cell DDA's.
 
+use super::cell::LocalRay;
 use super::{Ray, RayTracer, Trace};
 use crate::{Error, Terrain};
 
@@ -30,14 +31,24 @@ const MAX_LEVELS: usize = 33;
 /// ```
 #[derive(Debug, Clone, Copy)]
 pub struct MaxMip<'a> {
-    data: &'a [f32],
-    nx: u32,
-    ny: u32,
-    levels: u32,
-    offsets: [usize; MAX_LEVELS],
-    /// Per level: nodes across, nodes down, tiles across.
-    dims: [(u32, u32, u32); MAX_LEVELS],
-    bound: u64,
+    pub(super) data: &'a [f32],
+    pub(super) nx: u32,
+    pub(super) ny: u32,
+    pub(super) levels: u32,
+    lv: [Level; MAX_LEVELS],
+    pub(super) bound: u64,
+}
+
+/// Where a level lies in the storage and its size.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Level {
+    /// First element.
+    pub(super) off: usize,
+    /// Tiles across.
+    pub(super) tx: u32,
+    /// Nodes across and down.
+    pub(super) w: i64,
+    pub(super) h: i64,
 }
 
 #[inline]
@@ -143,11 +154,26 @@ impl<'a> MaxMip<'a> {
                 actual: buf.len(),
             });
         }
-        let mut dims = [(1u32, 1u32, 1u32); MAX_LEVELS];
+        let mut lv = [Level {
+            off: 0,
+            tx: 1,
+            w: 1,
+            h: 1,
+        }; MAX_LEVELS];
         let mut bound = 2u64;
-        for (k, d) in dims.iter_mut().enumerate().take(levels as usize) {
+        for (k, (l, &off)) in lv
+            .iter_mut()
+            .zip(&offsets)
+            .enumerate()
+            .take(levels as usize)
+        {
             let (w, h) = (dim(nx, k as u32), dim(ny, k as u32));
-            *d = (w, h, w.div_ceil(4));
+            *l = Level {
+                off,
+                tx: w.div_ceil(4),
+                w: w as i64,
+                h: h as i64,
+            };
             bound += 2 * (w as u64 + h as u64) + 2;
         }
         Ok(MaxMip {
@@ -155,8 +181,7 @@ impl<'a> MaxMip<'a> {
             nx,
             ny,
             levels,
-            offsets,
-            dims,
+            lv,
             bound,
         })
     }
@@ -266,25 +291,27 @@ impl<'a> MaxMip<'a> {
     /// ```
     #[must_use]
     pub fn node(&self, level: u32, x: u32, y: u32) -> f32 {
-        let Some(&(w, h, tx)) = self.dims.get(level as usize) else {
+        let Some(l) = self.lv.get(level as usize) else {
             return f32::NEG_INFINITY;
         };
-        if level >= self.levels || x >= w || y >= h {
+        if level >= self.levels || x as i64 >= l.w || y as i64 >= l.h {
             return f32::NEG_INFINITY;
         }
-        let off = self.offsets.get(level as usize).copied().unwrap_or(0);
         self.data
-            .get(off + tiled_t(tx, x, y))
+            .get(l.off + tiled_t(l.tx, x, y))
             .copied()
             .unwrap_or(f32::NEG_INFINITY)
     }
 
-    /// Nodes across and down on `level` (`(1, 1)` past the top).
-    #[inline]
-    fn dims_of(&self, level: u32) -> (i64, i64) {
-        self.dims
-            .get(level as usize)
-            .map_or((1, 1), |d| (d.0 as i64, d.1 as i64))
+    /// The layout of `level` (a one-node level past the top).
+    #[inline(always)]
+    pub(super) fn level(&self, level: u32) -> Level {
+        self.lv.get(level as usize).copied().unwrap_or(Level {
+            off: 0,
+            tx: 1,
+            w: 1,
+            h: 1,
+        })
     }
 
     /// Upper bound on the traversal steps of one ray: twice the nodes a line can cross on every
@@ -300,7 +327,158 @@ impl<'a> MaxMip<'a> {
     }
 }
 
+/// Rays traced together by the AVX-512 packet path (`trace_maxmip_packet_avx512`, x86-64): one
+/// ray per `f64` lane; each lane walks its own ray through the pyramid and takes the next ray
+/// when its own ends.
+///
+/// ```
+/// assert_eq!(relief_core::ray::PACKET_LANES, 8);
+/// ```
+pub const PACKET_LANES: usize = 8;
+
+/// The traversal state of one ray in the pyramid.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Walk {
+    pub(super) lr: LocalRay,
+    pub(super) t: f64,
+    pub(super) ix: i64,
+    pub(super) iy: i64,
+    pub(super) lvl: u32,
+    pub(super) steps: u64,
+    /// Per axis: whether the direction component is zero (`0`), positive (`1`) or negative
+    /// (`-1`); the neighbour step along the axis (`1` or `-1`).
+    pub(super) dir_x: i8,
+    pub(super) dir_y: i8,
+    pub(super) step_x: i64,
+    pub(super) step_y: i64,
+}
+
 impl<T: Terrain> RayTracer<'_, T> {
+    pub(super) fn check_mip(&self, mip: &MaxMip<'_>) -> Result<(), Error> {
+        if mip.nx != self.cells.x || mip.ny != self.cells.y {
+            return Err(Error::LengthMismatch {
+                expected: self.cells.x as usize * self.cells.y as usize,
+                actual: mip.nx as usize * mip.ny as usize,
+            });
+        }
+        Ok(())
+    }
+
+    /// Clips `ray` and tests its start; the walk from the top node when it goes on.
+    #[inline(always)]
+    pub(super) fn mip_start(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) -> Option<Walk> {
+        let lr = self.local(ray)?;
+        if let Some(hit) = self.start_hit(ray, &lr) {
+            out.cells = 1;
+            out.hit = Some(hit);
+            return None;
+        }
+        Some(Walk {
+            lr,
+            t: lr.t0,
+            ix: 0,
+            iy: 0,
+            lvl: mip.levels - 1,
+            steps: 0,
+            dir_x: sign(lr.d.x),
+            dir_y: sign(lr.d.y),
+            step_x: if lr.d.x >= 0.0 { 1 } else { -1 },
+            step_y: if lr.d.y >= 0.0 { 1 } else { -1 },
+        })
+    }
+
+    /// One traversal step of `w`: descend into the current node, test it exactly (a cell), or
+    /// skip it to its neighbour (and climb when the neighbour has another parent). `false` when
+    /// the walk has ended (hit recorded in `out`, or left the grid, or past the clipped end).
+    /// `ray/simd.rs` takes the same step in eight lanes with the same operations: keep the two
+    /// in step.
+    #[inline(always)]
+    fn mip_step(&self, ray: &Ray, mip: &MaxMip<'_>, w: &mut Walk, out: &mut Trace) -> bool {
+        if w.steps >= mip.bound {
+            return false;
+        }
+        w.steps += 1;
+        out.steps = out.steps.saturating_add(1);
+        let lr = &w.lr;
+        let (ix, iy, lvl) = (w.ix, w.iy, w.lvl);
+        let lv = mip.level(lvl);
+        let s = 1i64 << (lvl & 63);
+        let x0 = (ix * s) as f64;
+        let x1 = min_i(ix * s + s, mip.nx as i64) as f64;
+        let y0 = (iy * s) as f64;
+        let y1 = min_i(iy * s + s, mip.ny as i64) as f64;
+        let (ax, bx) = slab_signed(lr.o.x, lr.inv[0], w.dir_x, x0, x1);
+        let (ay, by) = slab_signed(lr.o.y, lr.inv[1], w.dir_y, y0, y1);
+        let ta = max_f(max_f(w.t, ax), ay);
+        let tb = min_f(min_f(lr.t1, bx), by);
+        if ta <= tb {
+            let idx = lv.off + tiled_t(lv.tx, ix as u32, iy as u32);
+            let m = mip.data.get(idx).copied().unwrap_or(f32::NEG_INFINITY) as f64;
+            if min_f(lr.z(ta), lr.z(tb)) <= m {
+                if lvl == 0 {
+                    out.cells += 1;
+                    let (cx, cy) = (ix as u32, iy as u32);
+                    if let Some(h) = super::cell::intersect(
+                        self.surface,
+                        lr,
+                        cx,
+                        cy,
+                        &self.corners(cx, cy),
+                        ta,
+                        tb,
+                    ) {
+                        out.hit = Some(self.make_hit(ray, cx, cy, h));
+                        return false;
+                    }
+                } else {
+                    // Descend into the child holding the point at `ta`. 2^-l is exact;
+                    // truncation equals floor after the clamp into the children (the point
+                    // lies in the node up to rounding).
+                    let l = lvl - 1;
+                    let cl = mip.level(l);
+                    let inv = f64::from_bits((1023 - l as u64) << 52);
+                    let px = lr.o.x + ta * lr.d.x;
+                    let py = lr.o.y + ta * lr.d.y;
+                    w.ix = min_i(
+                        min_i(max_i((px * inv) as i64, 2 * ix), 2 * ix + 1),
+                        cl.w - 1,
+                    );
+                    w.iy = min_i(
+                        min_i(max_i((py * inv) as i64, 2 * iy), 2 * iy + 1),
+                        cl.h - 1,
+                    );
+                    w.lvl = l;
+                    w.t = ta;
+                    return true;
+                }
+            }
+        }
+        // Skip the node: leave through the face crossed first (both at a corner).
+        let exit = min_f(bx, by);
+        w.t = max_f(exit, w.t);
+        if w.t > lr.t1 || lvl + 1 >= mip.levels {
+            return false;
+        }
+        let (mut sx, mut sy) = (ix, iy);
+        if bx <= by {
+            sx += w.step_x;
+        }
+        if by <= bx {
+            sy += w.step_y;
+        }
+        if sx < 0 || sy < 0 || sx >= lv.w || sy >= lv.h {
+            return false;
+        }
+        if (sx >> 1) != (ix >> 1) || (sy >> 1) != (iy >> 1) {
+            w.lvl += 1;
+            sx >>= 1;
+            sy >>= 1;
+        }
+        w.ix = sx;
+        w.iy = sy;
+        true
+    }
+
     /// Traces `ray` through the maximum mipmap `mip` (built for this terrain): hierarchical
     /// skipping, exact cell tests at level 0, so the hit equals [`RayTracer::trace_cell_dda`]'s.
     /// [`Error::LengthMismatch`] if `mip` belongs to another grid size.
@@ -317,115 +495,130 @@ impl<T: Terrain> RayTracer<'_, T> {
     /// assert_eq!(r.hit.unwrap().t, 2.0);
     /// ```
     pub fn trace_maxmip(&self, ray: &Ray, mip: &MaxMip<'_>) -> Result<Trace, Error> {
-        if mip.nx != self.cells.x || mip.ny != self.cells.y {
-            return Err(Error::LengthMismatch {
-                expected: self.cells.x as usize * self.cells.y as usize,
-                actual: mip.nx as usize * mip.ny as usize,
-            });
-        }
+        self.check_mip(mip)?;
         let mut out = Trace::default();
-        let Some(lr) = self.local(ray) else {
-            return Ok(out);
-        };
-        if let Some(hit) = self.start_hit(ray, &lr) {
-            out.cells = 1;
-            out.hit = Some(hit);
-            return Ok(out);
-        }
-        let (sx, sy) = (lr.d.x >= 0.0, lr.d.y >= 0.0);
-        let top = mip.levels - 1;
-        let mut lvl = top;
-        let (mut ix, mut iy) = (0i64, 0i64);
-        let mut t = lr.t0;
-        let (nx, ny) = (mip.nx as i64, mip.ny as i64);
-        let bound = mip.step_bound();
-        let mut steps = 0u64;
-        while steps < bound {
-            steps += 1;
-            out.steps = out.steps.saturating_add(1);
-            let s = 1i64 << lvl;
-            let (x0, x1) = ((ix * s) as f64, ((ix + 1) * s).min(nx) as f64);
-            let (y0, y1) = ((iy * s) as f64, ((iy + 1) * s).min(ny) as f64);
-            let (ax, bx) = slab(lr.o.x, lr.d.x, lr.inv[0], x0, x1);
-            let (ay, by) = slab(lr.o.y, lr.d.y, lr.inv[1], y0, y1);
-            let ta = t.max(ax).max(ay);
-            let tb = lr.t1.min(bx).min(by);
-            let mut descend = false;
-            if ta <= tb {
-                let m = mip.node(lvl, ix as u32, iy as u32) as f64;
-                if lr.z(ta).min(lr.z(tb)) <= m {
-                    if lvl == 0 {
-                        out.cells += 1;
-                        let (cx, cy) = (ix as u32, iy as u32);
-                        if let Some(h) = super::cell::intersect(
-                            self.surface,
-                            &lr,
-                            cx,
-                            cy,
-                            &self.corners(cx, cy),
-                            ta,
-                            tb,
-                        ) {
-                            out.hit = Some(self.make_hit(ray, cx, cy, h));
-                            return Ok(out);
-                        }
-                    } else {
-                        descend = true;
-                    }
-                }
-            }
-            if descend {
-                lvl -= 1;
-                t = ta;
-                // 1 / 2^lvl is exact; truncation equals floor after the clamp into the children
-                // (the point lies in the node up to rounding).
-                let inv = 1.0 / (1i64 << lvl) as f64;
-                let px = lr.o.x + ta * lr.d.x;
-                let py = lr.o.y + ta * lr.d.y;
-                let (w, h) = mip.dims_of(lvl);
-                ix = ((px * inv) as i64).max(2 * ix).min(2 * ix + 1).min(w - 1);
-                iy = ((py * inv) as i64).max(2 * iy).min(2 * iy + 1).min(h - 1);
-                continue;
-            }
-            // Skip the node: leave through the face crossed first (both at a corner).
-            let exit = bx.min(by);
-            if exit > t {
-                t = exit;
-            }
-            if t > lr.t1 || lvl == top {
-                return Ok(out);
-            }
-            let (ox, oy) = (ix, iy);
-            if bx <= by {
-                ix += if sx { 1 } else { -1 };
-            }
-            if by <= bx {
-                iy += if sy { 1 } else { -1 };
-            }
-            let (w, h) = mip.dims_of(lvl);
-            if ix < 0 || iy < 0 || ix >= w || iy >= h {
-                return Ok(out);
-            }
-            if (ix >> 1) != (ox >> 1) || (iy >> 1) != (oy >> 1) {
-                lvl += 1;
-                ix >>= 1;
-                iy >>= 1;
-            }
+        if let Some(mut w) = self.mip_start(ray, mip, &mut out) {
+            // Bounded: every step counts towards `mip.bound`, after which `mip_step` stops.
+            while self.mip_step(ray, mip, &mut w, &mut out) {}
         }
         Ok(out)
     }
+
+    /// Traces every ray of `rays` through `mip` into `out` (one [`Trace`] per ray, in order),
+    /// the same as [`RayTracer::trace_maxmip`] ray by ray. This portable version does exactly
+    /// that (interleaving the rays of a packet in scalar code was tried and was slower); on
+    /// x86-64 the std side can select `trace_maxmip_packet_avx512` at run time, which walks
+    /// [`PACKET_LANES`] rays at once in SIMD lanes with the same results. Errors:
+    /// [`Error::LengthMismatch`] for a pyramid of another grid, [`Error::BufferTooSmall`] if
+    /// `out` is shorter than `rays`.
+    ///
+    /// ```
+    /// use relief_core::ray::{MaxMip, Ray, RayTracer, Trace};
+    /// use relief_core::{Heightfield, Surface};
+    /// use glam::Vec3;
+    /// let s: Vec<f32> = (0..64).map(|i| ((i * 5) % 7) as f32).collect();
+    /// let hf = Heightfield::new(&s, 8, 8).unwrap();
+    /// let mut buf = vec![0.0; MaxMip::len(8, 8).unwrap()];
+    /// let mip = MaxMip::build(&hf, &mut buf).unwrap();
+    /// let t = RayTracer::new(&hf, Surface::Triangles);
+    /// let rays: Vec<Ray> = (0..20)
+    ///     .map(|i| Ray::new(Vec3::new(-1.0, 0.3 * i as f32, 9.0), Vec3::new(1.0, 0.1, -0.8)).unwrap())
+    ///     .collect();
+    /// let mut out = vec![Trace::default(); rays.len()];
+    /// t.trace_maxmip_packet(&rays, &mip, &mut out).unwrap();
+    /// for (r, o) in rays.iter().zip(&out) {
+    ///     assert_eq!(*o, t.trace_maxmip(r, &mip).unwrap());
+    /// }
+    /// assert!(t.trace_maxmip_packet(&rays, &mip, &mut out[..3]).is_err());
+    /// ```
+    pub fn trace_maxmip_packet(
+        &self,
+        rays: &[Ray],
+        mip: &MaxMip<'_>,
+        out: &mut [Trace],
+    ) -> Result<(), Error> {
+        self.check_mip(mip)?;
+        if out.len() < rays.len() {
+            return Err(Error::BufferTooSmall {
+                needed: rays.len(),
+                actual: out.len(),
+            });
+        }
+        self.each_ray(rays, mip, out);
+        Ok(())
+    }
+
+    /// [`RayTracer::trace_maxmip`] for each ray (lengths already checked).
+    pub(super) fn each_ray(&self, rays: &[Ray], mip: &MaxMip<'_>, out: &mut [Trace]) {
+        for (ray, o) in rays.iter().zip(out.iter_mut()) {
+            *o = Trace::default();
+            if let Some(mut w) = self.mip_start(ray, mip, o) {
+                // Bounded: every step counts towards `mip.bound`, after which `mip_step` stops.
+                while self.mip_step(ray, mip, &mut w, o) {}
+            }
+        }
+    }
 }
 
-#[inline]
-fn slab(o: f64, d: f64, inv: f64, lo: f64, hi: f64) -> (f64, f64) {
-    if d == 0.0 {
-        return (f64::NEG_INFINITY, f64::INFINITY);
+#[inline(always)]
+fn sign(d: f64) -> i8 {
+    if d > 0.0 {
+        1
+    } else if d < 0.0 {
+        -1
+    } else {
+        0
     }
+}
+
+/// The parameter interval `(entry, exit)` of the line `o + t d` in the slab `[lo, hi]`, given
+/// `inv = 1 / d` and the sign of `d`; `(-inf, inf)` for `d == 0`. The same values as sorting
+/// `(lo - o) inv` and `(hi - o) inv`, without a branch.
+#[inline(always)]
+fn slab_signed(o: f64, inv: f64, sign: i8, lo: f64, hi: f64) -> (f64, f64) {
     let a = (lo - o) * inv;
     let b = (hi - o) * inv;
-    if a <= b {
-        (a, b)
+    let (a, b) = if sign > 0 { (a, b) } else { (b, a) };
+    let a = if sign == 0 { f64::NEG_INFINITY } else { a };
+    let b = if sign == 0 { f64::INFINITY } else { b };
+    (a, b)
+}
+
+/// `max` without the NaN handling of `f64::max` (operands are never NaN here); exactly the
+/// x86 `maxpd` rule (`b` unless `a > b`), so the SIMD path computes the same values.
+#[inline(always)]
+fn max_f(a: f64, b: f64) -> f64 {
+    if a > b {
+        a
     } else {
-        (b, a)
+        b
+    }
+}
+
+/// `min` without the NaN handling of `f64::min`; exactly the x86 `minpd` rule.
+#[inline(always)]
+fn min_f(a: f64, b: f64) -> f64 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+#[inline(always)]
+fn max_i(a: i64, b: i64) -> i64 {
+    if b > a {
+        b
+    } else {
+        a
+    }
+}
+
+#[inline(always)]
+fn min_i(a: i64, b: i64) -> i64 {
+    if b < a {
+        b
+    } else {
+        a
     }
 }

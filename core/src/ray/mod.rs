@@ -48,12 +48,14 @@ mod dda;
 mod march;
 mod maxmip;
 mod run;
+#[cfg(target_arch = "x86_64")]
+mod simd;
 #[cfg(test)]
 mod tests;
 
 pub use dda::{CellDda, CellRun, GridLine, RunDda, RunIntercept, RunIntercepts};
 pub use march::{MarchOptions, MarchTrace};
-pub use maxmip::MaxMip;
+pub use maxmip::{MaxMip, PACKET_LANES};
 pub use run::RunAccel;
 
 use crate::{Error, Surface, Terrain};

@@ -174,6 +174,16 @@ fn trace_exact(hf: &Heightfield<'_, f32>, surface: Surface, ray: &Ray) -> Option
     let c = t.trace_cell_dda(ray);
     let r = t.trace_run_dda(ray, &acc).unwrap();
     let m = t.trace_maxmip(ray, &mip).unwrap();
+    // The packet entry point gives the same trace (hit and counters) alone and inside a
+    // packet of other rays; the AVX-512 variant is checked the same way in
+    // tests/tests/rays_packet.rs (the core forbids the `unsafe` its call needs).
+    let mut packet = [Trace::default(); 3];
+    let down = Ray::new(glam::Vec3::new(0.5, 0.5, 1e3), -glam::Vec3::Z).unwrap();
+    t.trace_maxmip_packet(&[down, *ray, *ray], &mip, &mut packet)
+        .unwrap();
+    assert_eq!(packet[1], m);
+    assert_eq!(packet[2], m);
+    assert_eq!(packet[0], t.trace_maxmip(&down, &mip).unwrap());
     assert!(c.steps as u64 <= t.step_bound());
     assert!(
         (m.steps as u64) < mip.step_bound(),

@@ -1,0 +1,451 @@
+//! AVX-512 packet traversal of the maximum mipmap (Tevs, Ihrke, Seidel 2008, section 4): eight
+//! rays walk the pyramid at once, one ray per 64-bit lane, each in its own node. Every lane
+//! takes the step of [`RayTracer::trace_maxmip`] (`mip_step` in `maxmip.rs`) with the same
+//! `f64` operations in the same order — `maxpd`/`minpd` are the `max_f`/`min_f` rules there,
+//! conversions between integers and floats are exact — so every lane computes bit for bit the
+//! values of the scalar step, and the hits are the same. Only the pyramid loads (eight scalar
+//! loads, since the core has no `unsafe` for gathers), the exact cell test (rare: about one cell
+//! per ray) and the start of a ray run lane by lane; a lane whose ray ends takes the next ray.
+//!
+//! The state lives in registers; lanes are read and written through `bytemuck` casts, so the
+//! module needs no `unsafe` either. Callers select it at run time (see
+//! [`RayTracer::trace_maxmip_packet_avx512`]).
+
+use super::maxmip::Walk;
+use super::{MaxMip, Ray, RayTracer, Trace, PACKET_LANES};
+use crate::{Error, Terrain};
+use bytemuck::cast;
+use core::arch::x86_64::*;
+
+/// Levels the lane tables hold (two 8-lane registers): grids up to `2^15` cells a side.
+const TABLE_LEVELS: u32 = 16;
+
+/// Per-lane values of one ray, written into its lane on refill.
+struct Lanes {
+    ox: __m512d,
+    oy: __m512d,
+    oz: __m512d,
+    dx: __m512d,
+    dy: __m512d,
+    dz: __m512d,
+    invx: __m512d,
+    invy: __m512d,
+    t1: __m512d,
+    t: __m512d,
+    ix: __m512i,
+    iy: __m512i,
+    lvl: __m512i,
+    steps: __m512i,
+    stepx: __m512i,
+    stepy: __m512i,
+    /// Direction component positive / zero, per axis.
+    posx: __mmask8,
+    posy: __mmask8,
+    zerox: __mmask8,
+    zeroy: __mmask8,
+}
+
+impl Lanes {
+    #[target_feature(enable = "avx512f,avx512dq")]
+    #[inline]
+    fn new() -> Lanes {
+        let z = _mm512_setzero_pd();
+        let zi = _mm512_setzero_si512();
+        Lanes {
+            ox: z,
+            oy: z,
+            oz: z,
+            dx: z,
+            dy: z,
+            dz: z,
+            invx: z,
+            invy: z,
+            t1: z,
+            t: z,
+            ix: zi,
+            iy: zi,
+            lvl: zi,
+            steps: zi,
+            stepx: zi,
+            stepy: zi,
+            posx: 0,
+            posy: 0,
+            zerox: 0,
+            zeroy: 0,
+        }
+    }
+
+    /// Writes walk `w` into lane `k` (`bit = 1 << k`).
+    #[target_feature(enable = "avx512f,avx512dq")]
+    #[inline]
+    fn set(&mut self, bit: __mmask8, w: &Walk) {
+        let f = |v: __m512d, x: f64| _mm512_mask_blend_pd(bit, v, _mm512_set1_pd(x));
+        let i = |v: __m512i, x: i64| _mm512_mask_blend_epi64(bit, v, _mm512_set1_epi64(x));
+        let lr = &w.lr;
+        self.ox = f(self.ox, lr.o.x);
+        self.oy = f(self.oy, lr.o.y);
+        self.oz = f(self.oz, lr.o.z);
+        self.dx = f(self.dx, lr.d.x);
+        self.dy = f(self.dy, lr.d.y);
+        self.dz = f(self.dz, lr.d.z);
+        self.invx = f(self.invx, lr.inv[0]);
+        self.invy = f(self.invy, lr.inv[1]);
+        self.t1 = f(self.t1, lr.t1);
+        self.t = f(self.t, w.t);
+        self.ix = i(self.ix, w.ix);
+        self.iy = i(self.iy, w.iy);
+        self.lvl = i(self.lvl, w.lvl as i64);
+        self.steps = i(self.steps, w.steps as i64);
+        self.stepx = i(self.stepx, w.step_x);
+        self.stepy = i(self.stepy, w.step_y);
+        let m = |mask: __mmask8, on: bool| if on { mask | bit } else { mask & !bit };
+        self.posx = m(self.posx, w.dir_x > 0);
+        self.posy = m(self.posy, w.dir_y > 0);
+        self.zerox = m(self.zerox, w.dir_x == 0);
+        self.zeroy = m(self.zeroy, w.dir_y == 0);
+    }
+}
+
+/// `(entry, exit)` of the slabs `[lo, hi]` per lane: `slab_signed` of `maxmip.rs`.
+#[target_feature(enable = "avx512f,avx512dq")]
+#[inline]
+fn slab8(
+    o: __m512d,
+    inv: __m512d,
+    pos: __mmask8,
+    zero: __mmask8,
+    lo: __m512d,
+    hi: __m512d,
+) -> (__m512d, __m512d) {
+    let a = _mm512_mul_pd(_mm512_sub_pd(lo, o), inv);
+    let b = _mm512_mul_pd(_mm512_sub_pd(hi, o), inv);
+    let entry = _mm512_mask_blend_pd(pos, b, a);
+    let exit = _mm512_mask_blend_pd(pos, a, b);
+    (
+        _mm512_mask_blend_pd(zero, entry, _mm512_set1_pd(f64::NEG_INFINITY)),
+        _mm512_mask_blend_pd(zero, exit, _mm512_set1_pd(f64::INFINITY)),
+    )
+}
+
+/// One lane-wise table lookup: `tab[idx]` for `idx` in `0..16`.
+#[target_feature(enable = "avx512f,avx512dq")]
+#[inline]
+fn lookup(tab: &(__m512i, __m512i), idx: __m512i) -> __m512i {
+    _mm512_permutex2var_epi64(tab.0, idx, tab.1)
+}
+
+impl<T: Terrain> RayTracer<'_, T> {
+    /// [`RayTracer::trace_maxmip_packet`] with [`PACKET_LANES`] (eight) rays in the eight `f64` lanes of AVX-512
+    /// registers (x86-64 only): the same results, ray for ray. Safe to call only where the CPU
+    /// has AVX-512F and AVX-512DQ (check with `is_x86_feature_detected!` on the std side).
+    /// Pyramids of more than 16 levels (grids over `2^15` cells a side) are traced ray by ray.
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX-512F and AVX-512DQ (a `#[target_feature]` function: calling it
+    /// elsewhere is undefined behaviour). The function itself uses no `unsafe`.
+    ///
+    /// ```
+    /// # #[cfg(target_arch = "x86_64")] {
+    /// use relief_core::ray::{MaxMip, Ray, RayTracer, Trace};
+    /// use relief_core::{Heightfield, Surface};
+    /// use glam::Vec3;
+    /// let s: Vec<f32> = (0..64).map(|i| ((i * 5) % 7) as f32).collect();
+    /// let hf = Heightfield::new(&s, 8, 8).unwrap();
+    /// let mut buf = vec![0.0; MaxMip::len(8, 8).unwrap()];
+    /// let mip = MaxMip::build(&hf, &mut buf).unwrap();
+    /// let t = RayTracer::new(&hf, Surface::Triangles);
+    /// let rays: Vec<Ray> = (0..20)
+    ///     .map(|i| Ray::new(Vec3::new(-1.0, 0.3 * i as f32, 9.0), Vec3::new(1.0, 0.1, -0.8)).unwrap())
+    ///     .collect();
+    /// let mut out = vec![Trace::default(); rays.len()];
+    /// if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512dq") {
+    ///     // SAFETY: the CPU has both features.
+    ///     unsafe { t.trace_maxmip_packet_avx512(&rays, &mip, &mut out) }.unwrap();
+    ///     for (r, o) in rays.iter().zip(&out) {
+    ///         assert_eq!(*o, t.trace_maxmip(r, &mip).unwrap());
+    ///     }
+    /// }
+    /// # }
+    /// ```
+    #[target_feature(enable = "avx512f,avx512dq")]
+    pub fn trace_maxmip_packet_avx512(
+        &self,
+        rays: &[Ray],
+        mip: &MaxMip<'_>,
+        out: &mut [Trace],
+    ) -> Result<(), Error> {
+        self.check_mip(mip)?;
+        if out.len() < rays.len() {
+            return Err(Error::BufferTooSmall {
+                needed: rays.len(),
+                actual: out.len(),
+            });
+        }
+        if mip.levels > TABLE_LEVELS {
+            self.each_ray(rays, mip, out);
+            return Ok(());
+        }
+        self.walk8(rays, mip, out);
+        Ok(())
+    }
+
+    #[target_feature(enable = "avx512f,avx512dq")]
+    fn walk8(&self, rays: &[Ray], mip: &MaxMip<'_>, out: &mut [Trace]) {
+        // Level tables (levels past the top read as one node; never selected).
+        let (mut off, mut tx, mut lw, mut lh) = ([0i64; 16], [0i64; 16], [1i64; 16], [1i64; 16]);
+        for (k, (((o, t), w), h)) in off
+            .iter_mut()
+            .zip(tx.iter_mut())
+            .zip(lw.iter_mut())
+            .zip(lh.iter_mut())
+            .enumerate()
+        {
+            let l = mip.level(k as u32);
+            (*o, *t, *w, *h) = (l.off as i64, l.tx as i64, l.w, l.h);
+        }
+        let split = |a: [i64; 16]| -> (__m512i, __m512i) {
+            let lo: [i64; 8] = [a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]];
+            let hi: [i64; 8] = [a[8], a[9], a[10], a[11], a[12], a[13], a[14], a[15]];
+            (cast(lo), cast(hi))
+        };
+        let (off_t, tx_t, w_t, h_t) = (split(off), split(tx), split(lw), split(lh));
+        let one = _mm512_set1_epi64(1);
+        let zero_i = _mm512_setzero_si512();
+        let nx = _mm512_set1_epi64(mip.nx as i64);
+        let ny = _mm512_set1_epi64(mip.ny as i64);
+        let levels = _mm512_set1_epi64(mip.levels as i64);
+        let bound = _mm512_set1_epi64(mip.bound.min(i64::MAX as u64) as i64);
+        let c1023 = _mm512_set1_epi64(1023);
+        let three = _mm512_set1_epi64(3);
+
+        let mut ln = Lanes::new();
+        let mut walks = [None::<Walk>; PACKET_LANES];
+        let mut ray_of = [usize::MAX; PACKET_LANES];
+        let mut active: __mmask8 = 0;
+        let mut next = 0usize;
+        // Fill every lane.
+        for k in 0..PACKET_LANES {
+            self.refill(
+                rays,
+                mip,
+                out,
+                &mut next,
+                k,
+                &mut walks,
+                &mut ray_of,
+                &mut ln,
+                &mut active,
+            );
+        }
+        // Bounded: each round steps every busy lane once (or ends its ray), and a ray is walked
+        // for at most `bound + 1` rounds, so `rays * (bound + 1) + 1` rounds cover every ray.
+        let rounds = (rays.len() as u64)
+            .saturating_mul(mip.bound.saturating_add(1))
+            .saturating_add(1);
+        let mut round = 0u64;
+        while active != 0 && round < rounds {
+            round += 1;
+            let live = active & _mm512_cmplt_epi64_mask(ln.steps, bound);
+            ln.steps = _mm512_mask_add_epi64(ln.steps, live, ln.steps, one);
+            let (ix, iy, lvl) = (ln.ix, ln.iy, ln.lvl);
+            let off = lookup(&off_t, lvl);
+            let txs = lookup(&tx_t, lvl);
+            let w = lookup(&w_t, lvl);
+            let h = lookup(&h_t, lvl);
+            let s = _mm512_sllv_epi64(one, lvl);
+            let x0i = _mm512_mullo_epi64(ix, s);
+            let y0i = _mm512_mullo_epi64(iy, s);
+            let x1i = _mm512_min_epi64(_mm512_add_epi64(x0i, s), nx);
+            let y1i = _mm512_min_epi64(_mm512_add_epi64(y0i, s), ny);
+            let (ax, bx) = slab8(
+                ln.ox,
+                ln.invx,
+                ln.posx,
+                ln.zerox,
+                _mm512_cvtepi64_pd(x0i),
+                _mm512_cvtepi64_pd(x1i),
+            );
+            let (ay, by) = slab8(
+                ln.oy,
+                ln.invy,
+                ln.posy,
+                ln.zeroy,
+                _mm512_cvtepi64_pd(y0i),
+                _mm512_cvtepi64_pd(y1i),
+            );
+            let ta = _mm512_max_pd(_mm512_max_pd(ln.t, ax), ay);
+            let tb = _mm512_min_pd(_mm512_min_pd(ln.t1, bx), by);
+            // Node index in the tiled level (tiled_t of maxmip.rs).
+            let tile = _mm512_add_epi64(
+                _mm512_mullo_epi64(_mm512_srai_epi64::<2>(iy), txs),
+                _mm512_srai_epi64::<2>(ix),
+            );
+            let inner = _mm512_or_si512(
+                _mm512_slli_epi64::<2>(_mm512_and_si512(iy, three)),
+                _mm512_and_si512(ix, three),
+            );
+            let idx = _mm512_add_epi64(off, _mm512_add_epi64(_mm512_slli_epi64::<4>(tile), inner));
+            let ia: [i64; 8] = cast(idx);
+            let mut mv = [f32::NEG_INFINITY; 8];
+            for (m, &i) in mv.iter_mut().zip(&ia) {
+                *m = usize::try_from(i)
+                    .ok()
+                    .and_then(|i| mip.data.get(i))
+                    .copied()
+                    .unwrap_or(f32::NEG_INFINITY);
+            }
+            let m = _mm512_cvtps_pd(cast::<[f32; 8], __m256>(mv));
+            let za = _mm512_add_pd(ln.oz, _mm512_mul_pd(ta, ln.dz));
+            let zb = _mm512_add_pd(ln.oz, _mm512_mul_pd(tb, ln.dz));
+            let zmin = _mm512_min_pd(za, zb);
+            let inside = live
+                & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(ta, tb)
+                & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(zmin, m);
+            let lvl0 = _mm512_cmpeq_epi64_mask(lvl, zero_i);
+            let leaf = inside & lvl0;
+            let mut hit: __mmask8 = 0;
+            if leaf != 0 {
+                let (tas, tbs): ([f64; 8], [f64; 8]) = (cast(ta), cast(tb));
+                let (xs, ys): ([i64; 8], [i64; 8]) = (cast(ix), cast(iy));
+                for k in 0..PACKET_LANES {
+                    if leaf & (1 << k) == 0 {
+                        continue;
+                    }
+                    let (Some(Some(wk)), Some(&r)) = (walks.get(k), ray_of.get(k)) else {
+                        continue;
+                    };
+                    let (Some(ray), Some(o)) = (rays.get(r), out.get_mut(r)) else {
+                        continue;
+                    };
+                    let (Some(&a), Some(&b), Some(&cx), Some(&cy)) =
+                        (tas.get(k), tbs.get(k), xs.get(k), ys.get(k))
+                    else {
+                        continue;
+                    };
+                    o.cells += 1;
+                    let (cx, cy) = (cx as u32, cy as u32);
+                    if let Some(h) = super::cell::intersect(
+                        self.surface,
+                        &wk.lr,
+                        cx,
+                        cy,
+                        &self.corners(cx, cy),
+                        a,
+                        b,
+                    ) {
+                        o.hit = Some(self.make_hit(ray, cx, cy, h));
+                        hit |= 1 << k;
+                    }
+                }
+            }
+            let descend = inside & !lvl0;
+            // Descend into the child holding the point at `ta`.
+            let l = _mm512_sub_epi64(lvl, one);
+            let cw = lookup(&w_t, l);
+            let ch = lookup(&h_t, l);
+            let inv = _mm512_castsi512_pd(_mm512_slli_epi64::<52>(_mm512_sub_epi64(c1023, l)));
+            let px = _mm512_add_pd(ln.ox, _mm512_mul_pd(ta, ln.dx));
+            let py = _mm512_add_pd(ln.oy, _mm512_mul_pd(ta, ln.dy));
+            let clamp = |c: __m512i, i: __m512i, n: __m512i| {
+                let lo = _mm512_add_epi64(i, i);
+                let c = _mm512_min_epi64(_mm512_max_epi64(c, lo), _mm512_add_epi64(lo, one));
+                _mm512_min_epi64(c, _mm512_sub_epi64(n, one))
+            };
+            let dxi = clamp(_mm512_cvttpd_epi64(_mm512_mul_pd(px, inv)), ix, cw);
+            let dyi = clamp(_mm512_cvttpd_epi64(_mm512_mul_pd(py, inv)), iy, ch);
+            // Skip to the neighbour through the face crossed first.
+            let exit = _mm512_min_pd(bx, by);
+            let st = _mm512_max_pd(exit, ln.t);
+            let sx =
+                _mm512_mask_add_epi64(ix, _mm512_cmp_pd_mask::<_CMP_LE_OQ>(bx, by), ix, ln.stepx);
+            let sy =
+                _mm512_mask_add_epi64(iy, _mm512_cmp_pd_mask::<_CMP_LE_OQ>(by, bx), iy, ln.stepy);
+            let gone = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(st, ln.t1)
+                | _mm512_cmpge_epi64_mask(_mm512_add_epi64(lvl, one), levels)
+                | _mm512_cmplt_epi64_mask(sx, zero_i)
+                | _mm512_cmplt_epi64_mask(sy, zero_i)
+                | _mm512_cmpge_epi64_mask(sx, w)
+                | _mm512_cmpge_epi64_mask(sy, h);
+            let up =
+                _mm512_cmpneq_epi64_mask(_mm512_srai_epi64::<1>(sx), _mm512_srai_epi64::<1>(ix))
+                    | _mm512_cmpneq_epi64_mask(
+                        _mm512_srai_epi64::<1>(sy),
+                        _mm512_srai_epi64::<1>(iy),
+                    );
+            let sx = _mm512_mask_srai_epi64::<1>(sx, up, sx);
+            let sy = _mm512_mask_srai_epi64::<1>(sy, up, sy);
+            let sl = _mm512_mask_add_epi64(lvl, up, lvl, one);
+            ln.ix = _mm512_mask_blend_epi64(descend, sx, dxi);
+            ln.iy = _mm512_mask_blend_epi64(descend, sy, dyi);
+            ln.lvl = _mm512_mask_blend_epi64(descend, sl, l);
+            ln.t = _mm512_mask_blend_pd(descend, st, ta);
+            let cont = live & !hit & (descend | !gone);
+            let ended = active & !cont;
+            active = cont;
+            if ended != 0 {
+                let steps: [i64; 8] = cast(ln.steps);
+                for k in 0..PACKET_LANES {
+                    if ended & (1 << k) == 0 {
+                        continue;
+                    }
+                    if let (Some(&r), Some(&n)) = (ray_of.get(k), steps.get(k)) {
+                        if let Some(o) = out.get_mut(r) {
+                            o.steps = u32::try_from(n).unwrap_or(u32::MAX);
+                        }
+                    }
+                    self.refill(
+                        rays,
+                        mip,
+                        out,
+                        &mut next,
+                        k,
+                        &mut walks,
+                        &mut ray_of,
+                        &mut ln,
+                        &mut active,
+                    );
+                }
+            }
+        }
+    }
+
+    /// Puts the next ray that needs a walk into lane `k` (its `Trace` reset, start tested);
+    /// leaves the lane idle when the rays are used up.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx512f,avx512dq")]
+    #[inline]
+    fn refill(
+        &self,
+        rays: &[Ray],
+        mip: &MaxMip<'_>,
+        out: &mut [Trace],
+        next: &mut usize,
+        k: usize,
+        walks: &mut [Option<Walk>; PACKET_LANES],
+        ray_of: &mut [usize; PACKET_LANES],
+        ln: &mut Lanes,
+        active: &mut __mmask8,
+    ) {
+        let bit: __mmask8 = 1 << (k & 7);
+        let (Some(wk), Some(rk)) = (walks.get_mut(k), ray_of.get_mut(k)) else {
+            return;
+        };
+        *wk = None;
+        while *next < rays.len() {
+            let r = *next;
+            *next += 1;
+            let (Some(ray), Some(o)) = (rays.get(r), out.get_mut(r)) else {
+                break;
+            };
+            *o = Trace::default();
+            if let Some(w) = self.mip_start(ray, mip, o) {
+                ln.set(bit, &w);
+                *wk = Some(w);
+                *rk = r;
+                *active |= bit;
+                return;
+            }
+        }
+    }
+}

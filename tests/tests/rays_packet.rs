@@ -1,0 +1,298 @@
+//! The max-mip packet paths (`trace_maxmip_packet`, and `trace_maxmip_packet_avx512` where the
+//! CPU has AVX-512F and DQ) give exactly the traces of `trace_maxmip` ray by ray: the same hit
+//! (bit for bit), the same cell and step counts, for every surface, on the bundled DEM's camera
+//! and grazing views (the same depth image) and on small grids with the hard cases of
+//! HARD_CASES.md (vertices, grid lines, diagonals, axis-aligned, straight down, grazing,
+//! starting inside, offsets of 1e6, tiny and huge height scales, 2 x 2 grids), in packets of
+//! every length around the lane count, and on a pyramid too tall for the AVX-512 lane tables.
+
+use relief_core::glam::{DVec3, Vec3};
+use relief_core::ray::{MaxMip, Ray, RayTracer, Trace, PACKET_LANES};
+use relief_core::{Camera, Heightfield, Scale, Surface};
+use std::path::Path;
+
+const SURFACES: [Surface; 4] = [
+    Surface::Triangles,
+    Surface::Bilinear,
+    Surface::Plane,
+    Surface::Nearest,
+];
+
+fn has_avx512() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512dq")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Every packet variant this CPU runs, on `rays`.
+fn packet_variants(
+    t: &RayTracer<'_, Heightfield<'_, f32>>,
+    mip: &MaxMip<'_>,
+    rays: &[Ray],
+) -> Vec<(&'static str, Vec<Trace>)> {
+    let mut v = Vec::new();
+    let mut o = vec![Trace::default(); rays.len()];
+    t.trace_maxmip_packet(rays, mip, &mut o).unwrap();
+    v.push(("portable", o));
+    #[cfg(target_arch = "x86_64")]
+    if has_avx512() {
+        // Stale contents must be overwritten.
+        let mut o = vec![
+            Trace {
+                cells: 77,
+                steps: 77,
+                hit: None
+            };
+            rays.len()
+        ];
+        // SAFETY: the CPU has AVX-512F and AVX-512DQ.
+        unsafe { t.trace_maxmip_packet_avx512(rays, mip, &mut o) }.unwrap();
+        v.push(("avx512", o));
+    }
+    v
+}
+
+/// Asserts every packet variant equals ray-by-ray tracing; returns the hits.
+fn assert_packets_equal(
+    t: &RayTracer<'_, Heightfield<'_, f32>>,
+    mip: &MaxMip<'_>,
+    rays: &[Ray],
+) -> usize {
+    let scalar: Vec<Trace> = rays
+        .iter()
+        .map(|r| t.trace_maxmip(r, mip).unwrap())
+        .collect();
+    for (name, got) in packet_variants(t, mip, rays) {
+        for (i, (g, s)) in got.iter().zip(&scalar).enumerate() {
+            assert_eq!(
+                g,
+                s,
+                "{name} differs for ray {i} {:?} ({:?})",
+                rays[i],
+                t.surface()
+            );
+        }
+    }
+    scalar.iter().filter(|s| s.hit.is_some()).count()
+}
+
+fn load() -> relief_io::Dem {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
+    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
+    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    dem
+}
+
+#[test]
+fn packet_paths_give_the_same_depth_image_on_the_bundled_dem() {
+    let dem = load();
+    let hf = dem.heightfield().unwrap();
+    let mut mbuf = vec![0.0f32; MaxMip::len(dem.width, dem.height).unwrap()];
+    let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
+    let views = [
+        Camera::new(
+            Vec3::new(20_000.0, 15_000.0, 9_000.0),
+            Vec3::new(90_000.0, 100_000.0, 0.0),
+            60.0,
+            64,
+            40,
+        )
+        .unwrap(),
+        Camera::new(
+            Vec3::new(2_000.0, 3_000.0, 4_410.0),
+            Vec3::new(160_000.0, 150_000.0, 4_390.0),
+            30.0,
+            64,
+            40,
+        )
+        .unwrap(),
+    ];
+    for surface in SURFACES {
+        let t = RayTracer::new(&hf, surface);
+        for cam in &views {
+            let rays: Vec<Ray> = (0..cam.height)
+                .flat_map(|j| (0..cam.width).map(move |i| (i, j)))
+                .map(|(i, j)| {
+                    let (o, d) = cam.ray(i, j);
+                    Ray::new(o, d).unwrap()
+                })
+                .collect();
+            let hits = assert_packets_equal(&t, &mip, &rays);
+            assert!(hits > rays.len() / 4, "{hits} hits: the views see terrain");
+        }
+    }
+}
+
+/// Crafted and pseudo-random rays over an `w x h` grid in grid units (`dx = dy = 1` unless
+/// the scale says otherwise), as world rays.
+fn ray_set(w: u32, h: u32, s: &Scale, lo: f32, hi: f32, seed: u64) -> Vec<Ray> {
+    let (ex, ey) = ((w - 1) as f64 * s.dx as f64, (h - 1) as f64 * s.dy as f64);
+    let (lo, hi) = (lo as f64, hi as f64);
+    let z0 = s.z_offset as f64;
+    let mut v = Vec::new();
+    let mut push = |o: DVec3, d: DVec3| {
+        if let Ok(r) = Ray::new_f64(o, d) {
+            v.push(r);
+        }
+    };
+    let top = z0 + hi + 1.0 + (hi - lo);
+    // Straight down onto vertices and cell centres; along grid lines; exact diagonals.
+    for k in 0..w.min(h) {
+        let (x, y) = (k as f64 * s.dx as f64, k as f64 * s.dy as f64);
+        push(DVec3::new(x, y, top), DVec3::new(0.0, 0.0, -1.0));
+        push(
+            DVec3::new(x + 0.5 * s.dx as f64, y, top),
+            DVec3::new(0.0, 0.0, -1.0),
+        );
+        push(DVec3::new(-1.0, y, top), DVec3::new(1.0, 0.0, -0.05));
+        push(DVec3::new(x, ey + 1.0, top), DVec3::new(0.0, -1.0, -0.05));
+        push(DVec3::new(x, 0.0, top), DVec3::new(1.0, 1.0, -0.1));
+        push(DVec3::new(ex, y, top), DVec3::new(-1.0, 1.0, -0.1));
+    }
+    // Axis-aligned horizontal rays at the top sample height, grazing rays 1e-6 rad down.
+    for k in 0..h {
+        let y = (k as f64 + 0.25) * s.dy as f64;
+        push(DVec3::new(-2.0, y, z0 + hi), DVec3::new(1.0, 0.0, 0.0));
+        push(
+            DVec3::new(ex + 2.0, y, z0 + hi),
+            DVec3::new(-1.0, 0.0, -1e-6),
+        );
+        push(
+            DVec3::new(-2.0, y, z0 + lo + 1e-7),
+            DVec3::new(1.0, 0.0, -1e-6),
+        );
+    }
+    // Pseudo-random rays: from above, from inside the terrain, from the sides, far offsets.
+    let mut state = seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1;
+    let mut rnd = || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    for _ in 0..300 {
+        let o = DVec3::new(
+            (rnd() * 1.4 - 0.2) * ex,
+            (rnd() * 1.4 - 0.2) * ey,
+            z0 + lo + (rnd() * 1.6 - 0.1) * (hi - lo + 1.0),
+        );
+        let d = DVec3::new(rnd() - 0.5, rnd() - 0.5, -rnd() * 0.6 + 0.1);
+        push(o, d);
+    }
+    v
+}
+
+#[test]
+fn packet_paths_equal_ray_by_ray_on_hard_cases() {
+    // (width, height, scale, height function)
+    type F = fn(u32, u32) -> f32;
+    let terrains: [(u32, u32, Scale, F); 6] = [
+        (2, 2, Scale::default(), |x, y| (x * 2 + y) as f32),
+        (37, 21, Scale::default(), |x, y| {
+            ((x * 7 + y * 13) % 11) as f32 * 0.5
+        }),
+        (9, 9, Scale::default(), |_, _| 0.0),
+        // A one-cell spike on flat ground.
+        (17, 17, Scale::default(), |x, y| {
+            if (x, y) == (8, 8) {
+                40.0
+            } else {
+                0.0
+            }
+        }),
+        // Heights scaled by 1e-3, world offsets of 1e6.
+        (
+            33,
+            17,
+            Scale::default()
+                .with_spacing(0.5, 2.0)
+                .with_z_scale(1e-3)
+                .with_z_offset(1e6),
+            |x, y| ((x ^ y) % 5) as f32,
+        ),
+        // Heights scaled by 1e4.
+        (20, 31, Scale::default().with_z_scale(1e4), |x, y| {
+            (((x * x + y) % 7) as f32) * 0.1
+        }),
+    ];
+    for (k, (w, h, scale, f)) in terrains.into_iter().enumerate() {
+        let s: Vec<f32> = (0..h).flat_map(|y| (0..w).map(move |x| f(x, y))).collect();
+        let hf = Heightfield::with_scale(&s, w, h, scale).unwrap();
+        let mut mbuf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
+        let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
+        for surface in SURFACES {
+            let t = RayTracer::new(&hf, surface);
+            let (lo, hi) = t.height_range();
+            let rays = ray_set(w, h, &scale, lo, hi, k as u64 + 1);
+            assert_packets_equal(&t, &mip, &rays);
+            // Packets of every length around the lane count, and an empty one.
+            for n in [
+                0,
+                1,
+                PACKET_LANES - 1,
+                PACKET_LANES,
+                PACKET_LANES + 1,
+                3 * PACKET_LANES + 5,
+            ] {
+                assert_packets_equal(&t, &mip, &rays[..n.min(rays.len())]);
+            }
+        }
+    }
+}
+
+#[test]
+fn packet_paths_handle_pyramids_taller_than_the_lane_tables() {
+    // 65537 x 2 samples: 17 levels, past the 16 the AVX-512 tables hold (traced ray by ray).
+    let (w, h) = (65_537u32, 2u32);
+    let s: Vec<f32> = (0..w * h).map(|i| ((i * 31) % 17) as f32).collect();
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let mut mbuf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
+    let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
+    assert!(mip.levels() > 16);
+    let t = RayTracer::new(&hf, Surface::Triangles);
+    let rays: Vec<Ray> = (0..40)
+        .map(|i| {
+            Ray::new(
+                Vec3::new(i as f32 * 1500.0, 0.3, 20.0),
+                Vec3::new(1.0, 0.0001, -0.002 * (i % 7 + 1) as f32),
+            )
+            .unwrap()
+        })
+        .collect();
+    let hits = assert_packets_equal(&t, &mip, &rays);
+    assert!(hits > 0);
+}
+
+#[test]
+fn packet_paths_reject_bad_buffers() {
+    let s = [0.0f32; 16];
+    let hf = Heightfield::new(&s, 4, 4).unwrap();
+    let mut mbuf = vec![0.0f32; MaxMip::len(4, 4).unwrap()];
+    let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
+    let other = [0.0f32; 25];
+    let hf5 = Heightfield::new(&other, 5, 5).unwrap();
+    let rays = [Ray::new(Vec3::new(1.5, 1.5, 3.0), -Vec3::Z).unwrap(); 3];
+    let mut short = [Trace::default(); 2];
+    let t = RayTracer::new(&hf, Surface::Triangles);
+    assert!(t.trace_maxmip_packet(&rays, &mip, &mut short).is_err());
+    let t5 = RayTracer::new(&hf5, Surface::Triangles);
+    let mut out = [Trace::default(); 3];
+    assert!(t5.trace_maxmip_packet(&rays, &mip, &mut out).is_err());
+    #[cfg(target_arch = "x86_64")]
+    if has_avx512() {
+        // SAFETY: the CPU has AVX-512F and AVX-512DQ.
+        unsafe {
+            assert!(t
+                .trace_maxmip_packet_avx512(&rays, &mip, &mut short)
+                .is_err());
+            assert!(t5
+                .trace_maxmip_packet_avx512(&rays, &mip, &mut out)
+                .is_err());
+        }
+    }
+}
