@@ -3,6 +3,7 @@
 pub mod diagram;
 pub mod info;
 pub mod mesh;
+pub mod mesh_detail;
 pub mod mesh_tin;
 pub mod rbf;
 pub mod render;
