@@ -79,22 +79,52 @@ pub struct MeshArgs {
     /// Preprocessed data layout.
     #[arg(long, value_enum, default_value = "full")]
     layout: Layout,
-    /// Output OBJ file.
-    #[arg(long, value_name = "PATH")]
-    out: PathBuf,
+    /// Output OBJ file (not with --tile-size, which writes into --out-dir).
+    #[arg(long, value_name = "PATH", required_unless_present = "tile_size")]
+    out: Option<PathBuf>,
+    /// Tiles: mesh the DEM in tiles of N = 2^k + 1 samples sharing their borders, each
+    /// preprocessed and meshed on its own, crack-free after the border protocol (view-independent,
+    /// full layout); writes DIR/tile_<col>_<row>.obj.
+    #[arg(long, value_name = "N", requires_all = ["out_dir", "max_error"], conflicts_with_all = ["eye", "edit", "out"])]
+    tile_size: Option<u32>,
+    /// Tiles: output folder.
+    #[arg(long, value_name = "DIR", requires = "tile_size")]
+    out_dir: Option<PathBuf>,
+    /// Tiles: add skirts DEPTH world z units deep along every tile border (off by default).
+    #[arg(long, value_name = "DEPTH", requires = "tile_size")]
+    skirt: Option<f32>,
+    /// Live edit: lower the samples at distance r < RADIUS from (X, Y) (grid samples) by
+    /// DEPTH * (1 - (r / RADIUS)^2) (height units before --z-scale), through the incremental
+    /// update of the preprocessed data, before meshing. Repeatable.
+    #[arg(long, value_name = "X,Y,RADIUS,DEPTH", allow_hyphen_values = true, value_parser = super::mesh_edit::parse_edit)]
+    edit: Vec<[f32; 4]>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
-    /// Detail levels below the base grid (--detail PATH --detail-factor K ...).
-    #[command(flatten)]
-    detail: super::mesh_detail::DetailArgs,
 }
 
 /// Runs `relief mesh`.
 pub fn run(a: &MeshArgs) -> CliResult {
-    if a.detail.detail.is_some() {
-        let common = super::mesh_detail::Common {
+    if let (Some(size), Some(dir)) = (a.tile_size, &a.out_dir) {
+        let (dem, _) = a.dem.load()?;
+        let o = super::mesh_tiles::TileOptions {
+            tile_size: size,
+            max_error: a.max_error.unwrap_or(0.0),
+            out_dir: dir,
+            skirt: a.skirt,
+            json: a.json,
+        };
+        return super::mesh_tiles::run(&dem, &o);
+    }
+    let a_out = a
+        .out
+        .as_ref()
+        .ok_or_else(|| CliError("relief mesh needs --out PATH".into()))?;
+    if !a.edit.is_empty() {
+        let e = super::mesh_edit::EditRun {
             dem: &a.dem,
+            edits: &a.edit,
+            max_error: a.max_error,
             eye: a.eye,
             target: a.target,
             fov: a.fov,
@@ -102,13 +132,12 @@ pub fn run(a: &MeshArgs) -> CliResult {
             pixel_error: a.pixel_error,
             no_cull: a.no_cull,
             lazy_levels: a.lazy_levels,
+            full: a.layout == Layout::Full,
             compact: a.layout == Layout::Compact,
-            max_error: a.max_error.is_some(),
-            tin: a.method == Method::Tin,
-            out: &a.out,
+            out: a_out,
             json: a.json,
         };
-        return super::mesh_detail::run(&a.detail, common);
+        return super::mesh_edit::run(&e);
     }
     if a.method == Method::Tin {
         if a.eye.is_some() {
@@ -117,7 +146,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
             ));
         }
         let (dem, _) = a.dem.load()?;
-        return super::mesh_tin::run_tin(&dem, a.max_error, a.max_vertices, &a.out, a.json);
+        return super::mesh_tin::run_tin(&dem, a.max_error, a.max_vertices, a_out, a.json);
     }
     if a.max_vertices.is_some() {
         return Err(CliError("--max-vertices needs --method tin".into()));
@@ -209,7 +238,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
             uncovered
         )));
     }
-    relief_io::write_obj(&a.out, &vertices, &triangles)?;
+    relief_io::write_obj(a_out, &vertices, &triangles)?;
     let uncovered_n = uncovered.map_or(0, |u| u.2);
     if a.json {
         let stats = |c: Option<StripCounts>| {
@@ -238,7 +267,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
             "strip_length": strip.map(|s| s.indices),
             "inout_strip": strip_json,
             "soar_strip": soar_json,
-            "out": a.out.display().to_string(),
+            "out": a_out.display().to_string(),
         });
         print_out(&format!("{v}\n"))
     } else {
@@ -253,7 +282,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
         };
         print_out(&format!(
             "{out}\n  mode        {criterion_kind}\n  size        {w} x {h}\n  vertices    {v}\n  triangles   {t}\n  max error   {max_err:.4} (measured over {cov} samples)\n  preprocess  {preprocess_ms:.1} ms ({layout:?}, {bpv} bytes/vertex)\n  refine      {refine_ms:.1} ms\n  strip       {strip_line}\n",
-            out = a.out.display(),
+            out = a_out.display(),
             v = counts.vertices,
             t = counts.triangles,
             cov = n - uncovered_n,
