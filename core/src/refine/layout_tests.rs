@@ -197,3 +197,46 @@ fn bad_inputs_are_errors() {
     assert!(pack_records(&full, &other, RecordLayout::Linear, &mut buf).is_err());
     assert_eq!(records_len(1, 5, RecordLayout::Linear), 0);
 }
+
+/// One scratch reused across view-dependent frames, view-independent calls, strips, a failed
+/// call (buffer too small) and a garbage start gives the same meshes as fresh zeroed scratch:
+/// sparse clearing leaves nothing behind.
+#[test]
+fn reused_scratch_gives_the_same_meshes() {
+    let (w, h) = (65, 65);
+    let s = grid(w, h, 9, 30.0);
+    let sc = Scale::default().with_spacing(10.0, 10.0);
+    let hf = Heightfield::with_scale(&s, w, h, sc).unwrap();
+    let n = hierarchy_len(w, h);
+    let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+    let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+    let mut crits = vec![];
+    for cam in cameras() {
+        crits.push(Criterion::View(View::new(&cam, 1.0).unwrap()));
+        crits.push(Criterion::MaxError(3.0));
+    }
+    let mut scratch = vec![u64::MAX; scratch_len(w, h)]; // garbage start
+    let (mut v, mut t) = (vec![[0.0f32; 3]; n], vec![[0u32; 3]; triangle_bound(w, h)]);
+    let mut strip = vec![0u32; strip_bound(w, h)];
+    for (k, c) in crits.iter().cycle().take(3 * crits.len()).enumerate() {
+        let expected = list(&full, &hf, *c);
+        let r = Refiner::new(&full, &hf, *c).unwrap();
+        let got = r.triangles(&mut scratch, &mut v, &mut t).unwrap();
+        assert_eq!(got.triangles, expected.t.len());
+        assert_eq!(&t[..got.triangles], &expected.t[..], "call {k}");
+        assert_eq!(&v[..got.vertices], &expected.v[..], "call {k}");
+        assert_eq!(r.count(&mut scratch).unwrap(), got);
+        match k % 3 {
+            0 => {
+                let mut short = vec![[0u32; 3]; got.triangles - 1];
+                assert!(r.triangles(&mut scratch, &mut v, &mut short).is_err());
+            }
+            1 => {
+                r.inout_strip(&mut scratch, &mut v, &mut strip).unwrap();
+            }
+            _ => {
+                r.soar_strip(&mut scratch, &mut v, &mut strip).unwrap();
+            }
+        }
+    }
+}

@@ -88,15 +88,20 @@ pub const fn hierarchy_len(width: u32, height: u32) -> usize {
     (width as usize).saturating_mul(height as usize)
 }
 
-/// Length of the `u64` scratch every refinement call needs: a bitmap of kept vertices and its
-/// rank prefix, `2 * ceil(width * height / 64)`.
+/// Length of the `u64` scratch every refinement call needs: a bitmap of kept vertices, its
+/// rank prefix, a summary bitmap of the marked words and a marker, `2 w + ceil(w / 64) + 1`
+/// with `w = ceil(width * height / 64)`. Any initial contents work; between calls leave it as
+/// refinement left it (or zero it): view-dependent refinement clears only the words its mesh
+/// touched (its cost follows the output, not the grid), and the marker word tells it when a
+/// full clear is needed.
 ///
 /// ```
-/// assert_eq!(relief_core::refine::scratch_len(8, 8), 2);
+/// assert_eq!(relief_core::refine::scratch_len(8, 8), 4);
+/// assert_eq!(relief_core::refine::scratch_len(1025, 1025), 2 * 16417 + 257 + 1);
 /// ```
 #[must_use]
 pub const fn scratch_len(width: u32, height: u32) -> usize {
-    2 * hierarchy_len(width, height).div_ceil(64)
+    select::marks_len(hierarchy_len(width, height))
 }
 
 /// Most vertices a mesh can have: `width * height`.

@@ -368,7 +368,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// assert!(c.vertices <= 25 && c.triangles > 2);
     /// ```
     pub fn count(&self, scratch: &mut [u64]) -> Result<FrameCounts, Error> {
-        self.select(scratch)
+        let c = self.select(scratch)?;
+        self.release(scratch);
+        Ok(c)
     }
 
     /// The indexed triangle list: fills `vertices` (world positions) and `triangles` (indices
@@ -457,33 +459,29 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         vertices: &mut [[f32; 3]],
         triangles: &mut [[u32; 3]],
     ) -> Result<FrameCounts, Error> {
-        let n = self.g.len();
-        need(2 * n.div_ceil(64), scratch.len())?;
-        let (bits, prefix) = split_scratch(scratch, n);
-        bits.fill(0);
+        let mut m = marks(scratch, self.g.len())?;
+        m.begin_sparse();
         let mut sink = GridSink {
-            bits,
+            m: &mut m,
             w: self.g.width() as i64,
             out: &mut *triangles,
             n: 0,
         };
         self.walk_all(&mut sink, false);
         let nt = sink.n;
-        let bits: &[u64] = sink.bits;
-        let mut acc = 0u64;
-        for (p, &b) in prefix.iter_mut().zip(bits.iter()) {
-            *p = acc;
-            acc += b.count_ones() as u64;
+        let nv = m.prefix_sparse();
+        let fits = nt <= triangles.len() && nv <= vertices.len();
+        if fits {
+            for t in triangles.iter_mut().take(nt) {
+                for k in t.iter_mut() {
+                    *k = rank(m.bits, m.prefix, *k as usize);
+                }
+            }
+            self.write_vertices_in(m.bits, m.touched(), vertices);
         }
-        let nv = acc as usize;
+        m.end_sparse();
         need(nt, triangles.len())?;
         need(nv, vertices.len())?;
-        for t in triangles.iter_mut().take(nt) {
-            for k in t.iter_mut() {
-                *k = rank(bits, prefix, *k as usize);
-            }
-        }
-        self.write_vertices(bits, vertices);
         Ok(FrameCounts {
             vertices: nv,
             triangles: nt,
@@ -513,6 +511,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// ```
     pub fn morph(&self, scratch: &mut [u64], out: &mut [MorphVertex]) -> Result<usize, Error> {
         let c = self.select(scratch)?;
+        if out.len() < c.vertices {
+            self.release(scratch);
+        }
         need(c.vertices, out.len())?;
         let (bits, _) = split_scratch(scratch, self.g.len());
         let w = (self.g.width() as usize).max(1); // never 0; the max keeps a panic path out
@@ -536,6 +537,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 k += 1;
             }
         }
+        self.release(scratch);
         Ok(k)
     }
 
@@ -585,10 +587,26 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// Marks the kept vertices in the bitmap, fills the rank prefix, returns the counts.
     pub(crate) fn select(&self, scratch: &mut [u64]) -> Result<FrameCounts, Error> {
         let n = self.g.len();
-        let words = n.div_ceil(64);
-        need(2 * words, scratch.len())?;
-        let (bits, prefix) = split_scratch(scratch, n);
-        let triangles = if self.view.is_none() {
+        let mut m = marks(scratch, n)?;
+        if self.view.is_some() {
+            // Sparse: only the words the mesh touches are marked, counted and later cleared.
+            m.begin_sparse();
+            let mut sink = MarkSink {
+                m: &mut m,
+                w: self.g.width() as i64,
+                n: 0,
+            };
+            self.walk_all(&mut sink, false);
+            let triangles = sink.n;
+            let vertices = m.prefix_sparse();
+            return Ok(FrameCounts {
+                vertices,
+                triangles,
+            });
+        }
+        m.dense();
+        let (bits, prefix) = (m.bits, m.prefix);
+        let triangles = {
             // The kept set is known: every in-domain vertex with error > E (corners and forced
             // vertices are +inf). A triangulated rectangle has 2V - B - 2 triangles.
             let e = self.max_error;
@@ -622,15 +640,6 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             let v = count_bits(bits);
             let border = self.border_count(bits);
             (2 * v).saturating_sub(border + 2)
-        } else {
-            bits.fill(0);
-            let mut sink = MarkSink {
-                bits,
-                w: self.g.width() as i64,
-                n: 0,
-            };
-            self.walk_all(&mut sink, false);
-            sink.n
         };
         let mut acc = 0u64;
         for (p, &b) in prefix.iter_mut().zip(bits.iter()) {
@@ -656,11 +665,32 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         c
     }
 
+    /// Leaves the scratch clean after [`Self::select`] (view-dependent: clears the touched
+    /// words; view-independent: nothing, the next call overwrites the bitmap).
+    pub(crate) fn release(&self, scratch: &mut [u64]) {
+        if self.view.is_some() {
+            if let Ok(mut m) = marks(scratch, self.g.len()) {
+                m.end_sparse();
+            }
+        }
+    }
+
     pub(crate) fn write_vertices(&self, bits: &[u64], vertices: &mut [[f32; 3]]) {
+        self.write_vertices_in(bits, 0..bits.len(), vertices);
+    }
+
+    /// Writes the positions of the marked vertices of bitmap words `words` (increasing).
+    pub(crate) fn write_vertices_in(
+        &self,
+        bits: &[u64],
+        words: impl Iterator<Item = usize>,
+        vertices: &mut [[f32; 3]],
+    ) {
         let w = (self.g.width() as usize).max(1); // never 0; the max keeps a panic path out
         let s = self.h.scale();
         let mut slots = vertices.iter_mut();
-        for (wi, &word) in bits.iter().enumerate() {
+        for wi in words {
+            let word = bits.get(wi).copied().unwrap_or(0);
             if word == 0 {
                 continue;
             }
@@ -961,6 +991,122 @@ pub(crate) fn need(needed: usize, actual: usize) -> Result<(), Error> {
     }
 }
 
+/// The scratch's parts: the bitmap of kept vertices (one bit per grid sample), the rank
+/// prefix (one `u64` per bitmap word), a summary bitmap (one bit per bitmap word that has a
+/// mark) and a marker word. View-dependent refinement marks sparsely: it counts, numbers and
+/// clears only the words its mesh touches (found through the summary), so its cost follows the
+/// output, not the grid; it leaves the bitmap and summary zero and the marker [`CLEAN`], and
+/// clears everything first when the marker says otherwise (a first call, garbage, or a
+/// view-independent call, which overwrites the whole bitmap).
+pub(crate) struct Marks<'s> {
+    pub(crate) bits: &'s mut [u64],
+    pub(crate) prefix: &'s mut [u64],
+    summary: &'s mut [u64],
+    marker: &'s mut u64,
+}
+
+/// Marker of a scratch whose bitmap and summary are all zero.
+const CLEAN: u64 = 0x7265_6c69_6566_c1ea;
+
+/// `u64`s of scratch for a grid of `n` samples: bitmap, prefix, summary, marker.
+pub(crate) const fn marks_len(n: usize) -> usize {
+    let words = n.div_ceil(64);
+    2 * words + words.div_ceil(64) + 1
+}
+
+pub(crate) fn marks(scratch: &mut [u64], n: usize) -> Result<Marks<'_>, Error> {
+    let words = n.div_ceil(64);
+    let len = scratch.len();
+    let short = Error::BufferTooSmall {
+        needed: marks_len(n),
+        actual: len,
+    };
+    let (bits, rest) = scratch.split_at_mut_checked(words).ok_or(short)?;
+    let (prefix, rest) = rest.split_at_mut_checked(words).ok_or(short)?;
+    let (summary, rest) = rest.split_at_mut_checked(words.div_ceil(64)).ok_or(short)?;
+    let marker = rest.first_mut().ok_or(short)?;
+    Ok(Marks {
+        bits,
+        prefix,
+        summary,
+        marker,
+    })
+}
+
+impl Marks<'_> {
+    /// Before sparse marking: clears everything unless the scratch is known clean.
+    pub(crate) fn begin_sparse(&mut self) {
+        if *self.marker != CLEAN {
+            self.bits.fill(0);
+            self.summary.fill(0);
+        }
+        *self.marker = 0;
+    }
+
+    /// Before the whole bitmap is overwritten.
+    pub(crate) fn dense(&mut self) {
+        *self.marker = 0;
+    }
+
+    #[inline(always)]
+    pub(crate) fn mark(&mut self, i: usize) {
+        let w = i >> 6;
+        if let Some(word) = self.bits.get_mut(w) {
+            *word |= 1u64 << (i & 63);
+        }
+        if let Some(s) = self.summary.get_mut(w >> 6) {
+            *s |= 1u64 << (w & 63);
+        }
+    }
+
+    /// The marked words, increasing.
+    pub(crate) fn touched(&self) -> impl Iterator<Item = usize> + '_ {
+        self.summary.iter().enumerate().flat_map(|(si, &s)| {
+            let mut b = s;
+            core::iter::from_fn(move || {
+                (b != 0).then(|| {
+                    let w = si * 64 + b.trailing_zeros() as usize;
+                    b &= b - 1;
+                    w
+                })
+            })
+        })
+    }
+
+    /// Rank prefix of the marked words; returns the number of marked vertices.
+    pub(crate) fn prefix_sparse(&mut self) -> usize {
+        let mut acc = 0u64;
+        for (si, &s) in self.summary.iter().enumerate() {
+            let mut b = s;
+            while b != 0 {
+                let w = si * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                if let Some(p) = self.prefix.get_mut(w) {
+                    *p = acc;
+                }
+                acc += self.bits.get(w).map_or(0, |x| x.count_ones()) as u64;
+            }
+        }
+        acc as usize
+    }
+
+    /// Clears the marked words and the summary; the scratch is clean again.
+    pub(crate) fn end_sparse(&mut self) {
+        for (si, s) in self.summary.iter_mut().enumerate() {
+            let mut b = *s;
+            while b != 0 {
+                let w = si * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                if let Some(x) = self.bits.get_mut(w) {
+                    *x = 0;
+                }
+            }
+            *s = 0;
+        }
+        *self.marker = CLEAN;
+    }
+}
+
 pub(crate) fn split_scratch(scratch: &mut [u64], n: usize) -> (&mut [u64], &mut [u64]) {
     let words = n.div_ceil(64);
     let (bits, rest) = scratch.split_at_mut(words.min(scratch.len()));
@@ -1094,42 +1240,37 @@ impl ViSquare<'_, '_> {
     }
 }
 
-struct MarkSink<'a> {
-    bits: &'a mut [u64],
+struct MarkSink<'a, 's> {
+    m: &'a mut Marks<'s>,
     w: i64,
     n: usize,
 }
 
-impl Sink for MarkSink<'_> {
+impl Sink for MarkSink<'_, '_> {
     #[inline(always)]
     fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64)) {
         for p in [a, b, c] {
-            let i = (p.1 * self.w + p.0) as usize;
-            if let Some(word) = self.bits.get_mut(i >> 6) {
-                *word |= 1u64 << (i & 63);
-            }
+            self.m.mark((p.1 * self.w + p.0) as usize);
         }
         self.n += 1;
     }
 }
 
 /// Writes triangles as grid indices (while there is room) and marks their vertices.
-struct GridSink<'a, 'o> {
-    bits: &'a mut [u64],
+struct GridSink<'a, 's, 'o> {
+    m: &'a mut Marks<'s>,
     w: i64,
     out: &'o mut [[u32; 3]],
     n: usize,
 }
 
-impl Sink for GridSink<'_, '_> {
+impl Sink for GridSink<'_, '_, '_> {
     #[inline(always)]
     fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64)) {
         let mut t = [0u32; 3];
         for (o, p) in t.iter_mut().zip([a, b, c]) {
             let i = (p.1 * self.w + p.0) as usize;
-            if let Some(word) = self.bits.get_mut(i >> 6) {
-                *word |= 1u64 << (i & 63);
-            }
+            self.m.mark(i);
             *o = i as u32;
         }
         if let Some(o) = self.out.get_mut(self.n) {

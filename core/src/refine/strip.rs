@@ -6,7 +6,7 @@
 //! sides are always refined (the four base triangles of SOAR, chapter 4.5). A culled vertex is
 //! treated as inactive: its triangles are drawn coarse (outside the view), as in SOAR.
 
-use super::select::{need, rank, split_scratch, Decision, Refiner};
+use super::select::{marks, need, rank, Decision, Marks, Refiner};
 use super::StripCounts;
 use crate::{Error, Terrain};
 
@@ -22,18 +22,15 @@ trait Out {
     fn put(&mut self, v: P);
 }
 
-struct Mark<'a> {
-    bits: &'a mut [u64],
+struct Mark<'a, 's> {
+    m: &'a mut Marks<'s>,
     w: i64,
 }
 
-impl Out for Mark<'_> {
+impl Out for Mark<'_, '_> {
     #[inline(always)]
     fn put(&mut self, v: P) {
-        let i = (v.1 * self.w + v.0) as usize;
-        if let Some(word) = self.bits.get_mut(i >> 6) {
-            *word |= 1u64 << (i & 63);
-        }
+        self.m.mark((v.1 * self.w + v.0) as usize);
     }
 }
 
@@ -363,14 +360,12 @@ impl<T: Terrain> Refiner<'_, '_, T> {
                 value: self.g.width() as f32,
             });
         }
-        let n = self.g.len();
-        need(2 * n.div_ceil(64), scratch.len())?;
-        let (bits, prefix) = split_scratch(scratch, n);
-        bits.fill(0);
+        let mut m = marks(scratch, self.g.len())?;
+        m.begin_sparse();
         let w = self.g.width() as i64;
         let mut pass1 = Strip {
             r: self,
-            out: Mark { bits, w },
+            out: Mark { m: &mut m, w },
             last: [(-1, -1); 2],
             len: 0,
             tris: 0,
@@ -385,25 +380,22 @@ impl<T: Terrain> Refiner<'_, '_, T> {
             pass1.run();
         }
         let (len, tris) = (pass1.len, pass1.tris);
-        let bits: &[u64] = pass1.out.bits;
-        let mut acc = 0u64;
-        for (p, &b) in prefix.iter_mut().zip(bits.iter()) {
-            *p = acc;
-            acc += b.count_ones() as u64;
-        }
         let counts = StripCounts {
-            vertices: acc as usize,
+            vertices: m.prefix_sparse(),
             indices: len,
             triangles: tris,
         };
+        if counts.vertices > vertices.len() || counts.indices > strip.len() {
+            m.end_sparse();
+        }
         need(counts.vertices, vertices.len())?;
         need(counts.indices, strip.len())?;
-        self.write_vertices(bits, vertices);
+        self.write_vertices_in(m.bits, m.touched(), vertices);
         let mut pass2 = Strip {
             r: self,
             out: Write {
-                bits,
-                prefix,
+                bits: m.bits,
+                prefix: m.prefix,
                 w,
                 out: strip,
                 n: 0,
@@ -421,6 +413,7 @@ impl<T: Terrain> Refiner<'_, '_, T> {
         } else {
             pass2.run();
         }
+        m.end_sparse();
         Ok(counts)
     }
 }

@@ -1,0 +1,143 @@
+//! View-dependent refinement time against input size (issue 6, out-of-core): the bundled Puget
+//! Sound DEM (1025^2, 160 m) upsampled bilinearly to `(1024 f + 1)^2` for each factor `f`
+//! given (default 1 4 16: 1025^2, 4097^2, 16385^2), written as raw little-endian f32 under
+//! `$SCALE_DIR` (default /tmp; 1 GiB for 16385^2, deleted afterwards unless `KEEP=1`), then
+//! **memory-mapped** (relief-io's `MappedGrid`), preprocessed, and refined for the same camera
+//! and pixel error (same world extent: the spacing is `160 / f` m) with three data layouts:
+//! the `f32` error and radius arrays with the mapped heights (linear), and the 8-byte records in
+//! linear and in subtree-contiguous Z-order (interleaved) layout. Times are the fastest and the
+//! median of `RUNS` (default 15) refinements of the indexed triangle list.
+//!
+//! `cargo run --release -p relief-benches --example refine_scale -- 1 4 16`
+
+use relief_core::glam::Vec3;
+use relief_core::refine::{
+    hierarchy_len, pack_records, preprocess, records_len, scratch_len, Criterion, Hierarchy,
+    RecordLayout, Refiner, VertexRecord, View,
+};
+use relief_core::{Camera, Heightfield, Terrain};
+use std::hint::black_box;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+fn upsample(src: &Heightfield<'_, f32>, f: u32, out: &Path) {
+    let n0 = src.width();
+    let n = (n0 - 1) * f + 1;
+    let mut w = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(out).unwrap());
+    let mut row = vec![0.0f32; n as usize];
+    let mut bytes = Vec::with_capacity(4 * n as usize);
+    for y in 0..n {
+        let (y0, fy) = (y / f, (y % f) as f32 / f as f32);
+        let y1 = (y0 + 1).min(n0 - 1);
+        for (x, o) in row.iter_mut().enumerate() {
+            let x = x as u32;
+            let (x0, fx) = (x / f, (x % f) as f32 / f as f32);
+            let x1 = (x0 + 1).min(n0 - 1);
+            let a = src.local_z(x0, y0) * (1.0 - fx) + src.local_z(x1, y0) * fx;
+            let b = src.local_z(x0, y1) * (1.0 - fx) + src.local_z(x1, y1) * fx;
+            *o = a * (1.0 - fy) + b * fy;
+        }
+        bytes.clear();
+        for v in &row {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        w.write_all(&bytes).unwrap();
+    }
+    w.flush().unwrap();
+}
+
+fn time<T: Terrain>(h: &Hierarchy<'_>, t: &T, c: Criterion, runs: usize) -> (usize, f64, f64) {
+    let (w, hh) = (t.width(), t.height());
+    let r = Refiner::new(h, t, c).unwrap();
+    let mut scratch = vec![0u64; scratch_len(w, hh)];
+    let cnt = r.count(&mut scratch).unwrap();
+    let mut verts = vec![[0.0f32; 3]; cnt.vertices];
+    let mut tris = vec![[0u32; 3]; cnt.triangles];
+    let mut ms: Vec<f64> = (0..runs)
+        .map(|_| {
+            let s = Instant::now();
+            black_box(r.triangles(&mut scratch, &mut verts, &mut tris).unwrap());
+            s.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    ms.sort_by(f64::total_cmp);
+    (cnt.triangles, ms[0], ms[runs / 2])
+}
+
+fn main() {
+    let runs: usize = std::env::var("RUNS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(15);
+    let dir = PathBuf::from(std::env::var("SCALE_DIR").unwrap_or_else(|_| "/tmp".into()));
+    let keep = std::env::var_os("KEEP").is_some();
+    let factors: Vec<u32> = std::env::args()
+        .skip(1)
+        .map(|a| a.parse().expect("factor"))
+        .collect();
+    let factors = if factors.is_empty() {
+        vec![1, 4, 16]
+    } else {
+        factors
+    };
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
+    let dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
+    let base = dem.heightfield().unwrap();
+    // A low oblique view over the middle of the map, 3 km up, 1280 x 720, 60 degrees.
+    let cam = Camera::new(
+        Vec3::new(112_000.0, 82_000.0, 3_000.0),
+        Vec3::new(82_000.0, 82_000.0, 0.0),
+        60.0,
+        1280,
+        720,
+    )
+    .unwrap();
+    let taus = [1.0f32, 4.0];
+    println!("| grid | data (bytes/vertex) | tau px | triangles | fastest ms | median ms | M tris/s (fastest) |");
+    println!("|---|---|---|---|---|---|---|");
+    for f in factors {
+        let n = (base.width() - 1) * f + 1;
+        let path = dir.join(format!("relief_scale_{n}.f32"));
+        let t0 = Instant::now();
+        upsample(&base, f, &path);
+        eprintln!(
+            "{n}^2: wrote {} in {:.1} s",
+            path.display(),
+            t0.elapsed().as_secs_f64()
+        );
+        let mut g = relief_io::MappedGrid::open(&path, n, n).unwrap();
+        let s = 160.0 / f as f32;
+        g.scale = g.scale.with_spacing(s, s).with_z_scale(0.1);
+        g.advise_random();
+        let hf = g.heightfield().unwrap();
+        let len = hierarchy_len(n, n);
+        let t0 = Instant::now();
+        let (mut e, mut r) = (vec![0.0f32; len], vec![0.0f32; len]);
+        let full = preprocess(&hf, &mut e, &mut r).unwrap();
+        eprintln!("{n}^2: preprocessed in {:.1} s", t0.elapsed().as_secs_f64());
+        let mut rl = vec![VertexRecord::default(); records_len(n, n, RecordLayout::Linear)];
+        let lin = pack_records(&full, &hf, RecordLayout::Linear, &mut rl).unwrap();
+        let mut ri = vec![VertexRecord::default(); records_len(n, n, RecordLayout::Interleaved)];
+        let il = pack_records(&full, &hf, RecordLayout::Interleaved, &mut ri).unwrap();
+        for tau in taus {
+            let c = Criterion::View(View::new(&cam, tau).unwrap());
+            for (name, h) in [
+                ("f32 arrays + heights, linear (8+4)", &full),
+                ("records, linear (8)", &lin),
+                ("records, interleaved Z-order (8)", &il),
+            ] {
+                let (t, best, med) = time(h, &hf, c, runs);
+                println!(
+                    "| {n}^2 | {name} | {tau} | {t} | {best:.3} | {med:.3} | {:.1} |",
+                    t as f64 / best / 1e3
+                );
+            }
+        }
+        drop((e, r, rl, ri));
+        drop(g);
+        if !keep {
+            let _ = std::fs::remove_file(&path);
+        }
+    }
+}
