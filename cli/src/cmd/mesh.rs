@@ -101,6 +101,9 @@ pub struct MeshArgs {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
+    /// Detail levels below the base grid (--detail PATH --detail-factor K ...).
+    #[command(flatten)]
+    detail: super::mesh_detail::DetailArgs,
 }
 
 /// Runs `relief mesh`.
@@ -138,6 +141,24 @@ pub fn run(a: &MeshArgs) -> CliResult {
             json: a.json,
         };
         return super::mesh_edit::run(&e);
+    }
+    if a.detail.detail.is_some() {
+        let common = super::mesh_detail::Common {
+            dem: &a.dem,
+            eye: a.eye,
+            target: a.target,
+            fov: a.fov,
+            size: a.size,
+            pixel_error: a.pixel_error,
+            no_cull: a.no_cull,
+            lazy_levels: a.lazy_levels,
+            compact: a.layout == Layout::Compact,
+            max_error: a.max_error.is_some(),
+            tin: a.method == Method::Tin,
+            out: a_out,
+            json: a.json,
+        };
+        return super::mesh_detail::run(&a.detail, common);
     }
     if a.method == Method::Tin {
         if a.eye.is_some() {
