@@ -266,7 +266,8 @@ pub extern "C" fn pc_grid_line(s: &[f64; 2], d: &[f64; 2], e: &[f64; 2], cells: 
 // ---- Refinement (core::refine) ----
 
 use relief_core::refine::{
-    preprocess, preprocess_compact, vertical_error, Criterion, MorphVertex, Refiner, View,
+    pack_records, preprocess, preprocess_compact, vertical_error, Criterion, MorphVertex,
+    RecordLayout, Refiner, VertexRecord, View,
 };
 
 /// Preprocessing (both layouts) and every refinement output, view-independent or view-dependent.
@@ -295,6 +296,8 @@ pub unsafe extern "C" fn pc_refine(
     cov_len: usize,
     e: f32,
     cam: &[f32; 8],
+    rec: *mut VertexRecord,
+    rec_len: usize,
 ) -> f64 {
     let Ok(hf) = Heightfield::with_scale(view(p, len), w, h, scale(s)) else {
         return -1.0;
@@ -345,6 +348,29 @@ pub unsafe extern "C" fn pc_refine(
         acc += r
             .morph(view_mut(scratch, scratch_len), view_mut(morph, morph_len))
             .unwrap_or(0) as f64;
+    }
+    // 8-byte records in both layouts (pack_records and the record decision path).
+    for layout in [RecordLayout::Linear, RecordLayout::Interleaved] {
+        let Ok(hr) = pack_records(&hier, &hf, layout, view_mut(rec, rec_len)) else {
+            continue;
+        };
+        acc += f64::from(hr.error(1, 1).unwrap_or(0.0));
+        for crit in criteria {
+            let Ok(r) = Refiner::new(&hr, &hf, crit) else {
+                continue;
+            };
+            let sc = view_mut(scratch, scratch_len);
+            acc += r
+                .triangles(sc, view_mut(verts, verts_len), view_mut(tris, tris_len))
+                .map_or(0.0, |c| c.triangles as f64);
+            acc += r
+                .soar_strip(
+                    view_mut(scratch, scratch_len),
+                    view_mut(verts, verts_len),
+                    view_mut(strip, strip_len),
+                )
+                .map_or(0.0, |c| c.indices as f64);
+        }
     }
     acc
 }
