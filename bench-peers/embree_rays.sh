@@ -21,7 +21,7 @@ while read -r name file fmt dx dy zmul; do
     h=${dims#* }
     "$PY" -c "import numpy as n,sys; a=n.fromfile(sys.argv[1],'<f4')*n.float32($zmul); a.astype('<f4').tofile(sys.argv[1])" "$TMP/$name.raw"
     for view in camera grazing; do
-        for method in maxmip run-dda; do
+        for method in maxmip maxmip-scalar run-dda; do
             "$PY" bench-peers/embree_trace.py "$RELIEF" "$TMP/$name.raw" "$w" "$h" "$dx" "$dy" \
                 "$view" "$SIZE" "$method" "$ROUNDS"
             echo

@@ -3,6 +3,9 @@ triangulation of CONVENTIONS.md (cell (x, y) split along (x, y)-(x+1, y+1)).
 
 usage: embree_trace.py RELIEF_BIN RAW.f32 W H DX DY VIEW WxH METHOD ROUNDS
 
+METHOD is a `relief trace --method` name, or `maxmip-scalar` for max-mip ray by ray
+(`--method maxmip --no-packet`; plain `maxmip` uses the AVX-512 packet path where the CPU has it).
+
 RAW.f32 holds the heights in world units (make it with dem_to_raw.py; for the bundled Puget
 Sound PNG scale by 0.1 first or pass the PNG values and accept z in decimetres). VIEW is
 `camera` (oblique, from above a corner towards the centre, fov 60) or `grazing` (from just above
@@ -88,16 +91,20 @@ def main():
     scene.run(origins, dirs, output=1)  # builds the BVH
 
     out = tempfile.NamedTemporaryFile(suffix=".f32", delete=False).name
+    extra = []
+    if method == "maxmip-scalar":
+        method, extra = "maxmip", ["--no-packet"]
     cmd = [
         relief, "trace", "--dem", raw, "--format", "raw-f32", "--width", str(gw), "--height",
         str(gh), "--dx", str(dx), "--dy", str(dy), "--eye", fmt(eye), "--target", fmt(target),
         "--fov", str(fov), "--size", size,
         "--method", method, "--surface", "triangles", "--threads", "1", "--out", out, "--json",
-    ]
+    ] + extra
     relief_rps, embree_rps = [], []
     res = None
     for _ in range(rounds):
         rj = json.loads(subprocess.run(cmd, check=True, capture_output=True).stdout)
+        packet = rj.get("packet", "off")
         relief_rps.append(rj["rays_per_s"])
         t0 = time.perf_counter()
         res = scene.run(origins, dirs, output=1)
@@ -114,7 +121,8 @@ def main():
                 "dem": raw,
                 "view": view_name,
                 "rays": int(len(dirs)),
-                "method": method,
+                "method": method + ("-scalar" if extra else ""),
+                "packet": packet,
                 "relief_hits": int(np.isfinite(tr).sum()),
                 "embree_hits": int(np.isfinite(te).sum()),
                 "agree_fraction": float(agree.mean()),

@@ -255,6 +255,12 @@ fn table() {
     }
     println!("| comparison | A (fastest round) | B (fastest round) | A / B |");
     println!("|---|---|---|---|");
+    traversal_table();
+    tracing_table();
+}
+
+/// Run DDA against cell DDA traversal rows of the table.
+fn traversal_table() {
     let lines = orientation_lines(256);
     let cells: u64 = lines.iter().map(|l| l.cells().count() as u64).sum();
     let rep = 100;
@@ -295,6 +301,10 @@ fn table() {
             b / per * 1e9
         );
     }
+}
+
+/// Full tracing rows of the table and the march tables.
+fn tracing_table() {
     let dem = load();
     let hf = dem.heightfield().unwrap();
     let tracer = RayTracer::new(&hf, Surface::Triangles);
@@ -419,6 +429,36 @@ fn views(lo: f32, hi: f32) -> [(&'static str, Camera); 2] {
     ]
 }
 
+/// Fastest of `reps` alternating timings of A and of B on each chunk of `chunk` rays, summed
+/// over the chunks: each timing is short (about 0.1 ms), so most run without being preempted on
+/// a loaded machine. Chunks are traced repeatedly, so their pyramid nodes are warmer in the
+/// caches than in one pass over the image. Returns the seconds of A and B and A / B.
+fn chunked(
+    n: usize,
+    chunk: usize,
+    reps: usize,
+    mut a: impl FnMut(std::ops::Range<usize>) -> u64,
+    mut b: impl FnMut(std::ops::Range<usize>) -> u64,
+) -> (f64, f64, f64) {
+    let (mut ta, mut tb, mut sink) = (0.0, 0.0, 0u64);
+    for s in (0..n).step_by(chunk) {
+        let r = s..(s + chunk).min(n);
+        let (mut ma, mut mb) = (f64::INFINITY, f64::INFINITY);
+        for _ in 0..reps {
+            let t = std::time::Instant::now();
+            sink = sink.wrapping_add(a(r.clone()));
+            ma = ma.min(t.elapsed().as_secs_f64());
+            let t = std::time::Instant::now();
+            sink = sink.wrapping_add(b(r.clone()));
+            mb = mb.min(t.elapsed().as_secs_f64());
+        }
+        ta += ma;
+        tb += mb;
+    }
+    black_box(sink);
+    (ta, tb, ta / tb)
+}
+
 /// Max-mip ray by ray (A) against the AVX-512 packet path (B) on both views, where the CPU has
 /// AVX-512; the packet results are checked to equal the scalar ones before timing.
 fn mip_table() {
@@ -460,11 +500,38 @@ fn mip_table() {
                 n / a,
                 n / b
             );
+            let mut o4 = vec![Trace::default(); rays.len()];
+            let (a, b, r) = chunked(
+                rays.len(),
+                512,
+                9,
+                |rg| {
+                    rays[rg]
+                        .iter()
+                        .map(|r| tracer.trace_maxmip(r, &mip).unwrap().hit.is_some() as u64)
+                        .sum::<u64>()
+                },
+                |rg| {
+                    let (rs, os) = (&rays[rg.clone()], &mut o4[rg]);
+                    // SAFETY: as above.
+                    unsafe { tracer.trace_maxmip_packet_avx512(rs, &mip, os) }.unwrap();
+                    os.iter().filter(|t| t.hit.is_some()).count() as u64
+                },
+            );
+            println!(
+                "| max-mip, {name} view, chunks of 512 rays (fastest of 9 each): ray by ray (A) vs packet of {PACKET_LANES}, AVX-512 (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
+                n / a,
+                n / b
+            );
         }
     }
 }
 
 fn table_bench(_c: &mut Criterion) {
+    if std::env::var("RELIEF_RAYS_TRAVERSAL").is_ok() {
+        traversal_table();
+        return;
+    }
     if std::env::var("RELIEF_RAYS_MIP").is_ok() {
         mip_table();
         return;

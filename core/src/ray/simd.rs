@@ -106,6 +106,43 @@ impl Lanes {
     }
 }
 
+/// Lanes of one pack: the vector state, each lane's walk (for the exact cell test) and ray.
+struct Pack {
+    ln: Lanes,
+    walks: [Option<Walk>; PACKET_LANES],
+    ray_of: [usize; PACKET_LANES],
+    active: __mmask8,
+}
+
+impl Pack {
+    #[target_feature(enable = "avx512f,avx512dq")]
+    #[inline]
+    fn new() -> Pack {
+        Pack {
+            ln: Lanes::new(),
+            walks: [None; PACKET_LANES],
+            ray_of: [usize::MAX; PACKET_LANES],
+            active: 0,
+        }
+    }
+}
+
+/// Per-call constants: level tables and splats.
+struct Consts {
+    off_t: (__m512i, __m512i),
+    tx_t: (__m512i, __m512i),
+    w_t: (__m512i, __m512i),
+    h_t: (__m512i, __m512i),
+    one: __m512i,
+    zero_i: __m512i,
+    nx: __m512i,
+    ny: __m512i,
+    levels: __m512i,
+    bound: __m512i,
+    c1023: __m512i,
+    three: __m512i,
+}
+
 /// `(entry, exit)` of the slabs `[lo, hi]` per lane: `slab_signed` of `maxmip.rs`.
 #[target_feature(enable = "avx512f,avx512dq")]
 #[inline]
@@ -209,34 +246,37 @@ impl<T: Terrain> RayTracer<'_, T> {
             let hi: [i64; 8] = [a[8], a[9], a[10], a[11], a[12], a[13], a[14], a[15]];
             (cast(lo), cast(hi))
         };
-        let (off_t, tx_t, w_t, h_t) = (split(off), split(tx), split(lw), split(lh));
-        let one = _mm512_set1_epi64(1);
-        let zero_i = _mm512_setzero_si512();
-        let nx = _mm512_set1_epi64(mip.nx as i64);
-        let ny = _mm512_set1_epi64(mip.ny as i64);
-        let levels = _mm512_set1_epi64(mip.levels as i64);
-        let bound = _mm512_set1_epi64(mip.bound.min(i64::MAX as u64) as i64);
-        let c1023 = _mm512_set1_epi64(1023);
-        let three = _mm512_set1_epi64(3);
-
-        let mut ln = Lanes::new();
-        let mut walks = [None::<Walk>; PACKET_LANES];
-        let mut ray_of = [usize::MAX; PACKET_LANES];
-        let mut active: __mmask8 = 0;
+        let c = Consts {
+            off_t: split(off),
+            tx_t: split(tx),
+            w_t: split(lw),
+            h_t: split(lh),
+            one: _mm512_set1_epi64(1),
+            zero_i: _mm512_setzero_si512(),
+            nx: _mm512_set1_epi64(mip.nx as i64),
+            ny: _mm512_set1_epi64(mip.ny as i64),
+            levels: _mm512_set1_epi64(mip.levels as i64),
+            bound: _mm512_set1_epi64(mip.bound.min(i64::MAX as u64) as i64),
+            c1023: _mm512_set1_epi64(1023),
+            three: _mm512_set1_epi64(3),
+        };
+        // Two packs of eight lanes, stepped in turn: their pyramid loads overlap.
+        let mut packs = [Pack::new(), Pack::new()];
         let mut next = 0usize;
-        // Fill every lane.
-        for k in 0..PACKET_LANES {
-            self.refill(
-                rays,
-                mip,
-                out,
-                &mut next,
-                k,
-                &mut walks,
-                &mut ray_of,
-                &mut ln,
-                &mut active,
-            );
+        for pk in packs.iter_mut() {
+            for k in 0..PACKET_LANES {
+                self.refill(
+                    rays,
+                    mip,
+                    out,
+                    &mut next,
+                    k,
+                    &mut pk.walks,
+                    &mut pk.ray_of,
+                    &mut pk.ln,
+                    &mut pk.active,
+                );
+            }
         }
         // Bounded: each round steps every busy lane once (or ends its ray), and a ray is walked
         // for at most `bound + 1` rounds, so `rays * (bound + 1) + 1` rounds cover every ray.
@@ -244,168 +284,193 @@ impl<T: Terrain> RayTracer<'_, T> {
             .saturating_mul(mip.bound.saturating_add(1))
             .saturating_add(1);
         let mut round = 0u64;
-        while active != 0 && round < rounds {
+        while packs.iter().any(|p| p.active != 0) && round < rounds {
             round += 1;
-            let live = active & _mm512_cmplt_epi64_mask(ln.steps, bound);
-            ln.steps = _mm512_mask_add_epi64(ln.steps, live, ln.steps, one);
-            let (ix, iy, lvl) = (ln.ix, ln.iy, ln.lvl);
-            let off = lookup(&off_t, lvl);
-            let txs = lookup(&tx_t, lvl);
-            let w = lookup(&w_t, lvl);
-            let h = lookup(&h_t, lvl);
-            let s = _mm512_sllv_epi64(one, lvl);
-            let x0i = _mm512_mullo_epi64(ix, s);
-            let y0i = _mm512_mullo_epi64(iy, s);
-            let x1i = _mm512_min_epi64(_mm512_add_epi64(x0i, s), nx);
-            let y1i = _mm512_min_epi64(_mm512_add_epi64(y0i, s), ny);
-            let (ax, bx) = slab8(
-                ln.ox,
-                ln.invx,
-                ln.posx,
-                ln.zerox,
-                _mm512_cvtepi64_pd(x0i),
-                _mm512_cvtepi64_pd(x1i),
-            );
-            let (ay, by) = slab8(
-                ln.oy,
-                ln.invy,
-                ln.posy,
-                ln.zeroy,
-                _mm512_cvtepi64_pd(y0i),
-                _mm512_cvtepi64_pd(y1i),
-            );
-            let ta = _mm512_max_pd(_mm512_max_pd(ln.t, ax), ay);
-            let tb = _mm512_min_pd(_mm512_min_pd(ln.t1, bx), by);
-            // Node index in the tiled level (tiled_t of maxmip.rs).
-            let tile = _mm512_add_epi64(
-                _mm512_mullo_epi64(_mm512_srai_epi64::<2>(iy), txs),
-                _mm512_srai_epi64::<2>(ix),
-            );
-            let inner = _mm512_or_si512(
-                _mm512_slli_epi64::<2>(_mm512_and_si512(iy, three)),
-                _mm512_and_si512(ix, three),
-            );
-            let idx = _mm512_add_epi64(off, _mm512_add_epi64(_mm512_slli_epi64::<4>(tile), inner));
-            let ia: [i64; 8] = cast(idx);
-            let mut mv = [f32::NEG_INFINITY; 8];
-            for (m, &i) in mv.iter_mut().zip(&ia) {
-                *m = usize::try_from(i)
-                    .ok()
-                    .and_then(|i| mip.data.get(i))
-                    .copied()
-                    .unwrap_or(f32::NEG_INFINITY);
+            for pk in packs.iter_mut() {
+                self.step8(rays, mip, out, &mut next, &c, pk);
             }
-            let m = _mm512_cvtps_pd(cast::<[f32; 8], __m256>(mv));
-            let za = _mm512_add_pd(ln.oz, _mm512_mul_pd(ta, ln.dz));
-            let zb = _mm512_add_pd(ln.oz, _mm512_mul_pd(tb, ln.dz));
-            let zmin = _mm512_min_pd(za, zb);
-            let inside = live
-                & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(ta, tb)
-                & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(zmin, m);
-            let lvl0 = _mm512_cmpeq_epi64_mask(lvl, zero_i);
-            let leaf = inside & lvl0;
-            let mut hit: __mmask8 = 0;
-            if leaf != 0 {
-                let (tas, tbs): ([f64; 8], [f64; 8]) = (cast(ta), cast(tb));
-                let (xs, ys): ([i64; 8], [i64; 8]) = (cast(ix), cast(iy));
-                for k in 0..PACKET_LANES {
-                    if leaf & (1 << k) == 0 {
-                        continue;
-                    }
-                    let (Some(Some(wk)), Some(&r)) = (walks.get(k), ray_of.get(k)) else {
-                        continue;
-                    };
-                    let (Some(ray), Some(o)) = (rays.get(r), out.get_mut(r)) else {
-                        continue;
-                    };
-                    let (Some(&a), Some(&b), Some(&cx), Some(&cy)) =
-                        (tas.get(k), tbs.get(k), xs.get(k), ys.get(k))
-                    else {
-                        continue;
-                    };
-                    o.cells += 1;
-                    let (cx, cy) = (cx as u32, cy as u32);
-                    if let Some(h) = super::cell::intersect(
-                        self.surface,
-                        &wk.lr,
-                        cx,
-                        cy,
-                        &self.corners(cx, cy),
-                        a,
-                        b,
-                    ) {
-                        o.hit = Some(self.make_hit(ray, cx, cy, h));
-                        hit |= 1 << k;
-                    }
+        }
+    }
+
+    /// One step of every busy lane of `pk`; ended lanes take the next ray.
+    #[target_feature(enable = "avx512f,avx512dq")]
+    #[inline]
+    fn step8(
+        &self,
+        rays: &[Ray],
+        mip: &MaxMip<'_>,
+        out: &mut [Trace],
+        next: &mut usize,
+        c: &Consts,
+        pk: &mut Pack,
+    ) {
+        if pk.active == 0 {
+            return;
+        }
+        let live = pk.active & _mm512_cmplt_epi64_mask(pk.ln.steps, c.bound);
+        pk.ln.steps = _mm512_mask_add_epi64(pk.ln.steps, live, pk.ln.steps, c.one);
+        let (ix, iy, lvl) = (pk.ln.ix, pk.ln.iy, pk.ln.lvl);
+        let off = lookup(&c.off_t, lvl);
+        let txs = lookup(&c.tx_t, lvl);
+        let w = lookup(&c.w_t, lvl);
+        let h = lookup(&c.h_t, lvl);
+        let s = _mm512_sllv_epi64(c.one, lvl);
+        let x0i = _mm512_mullo_epi64(ix, s);
+        let y0i = _mm512_mullo_epi64(iy, s);
+        let x1i = _mm512_min_epi64(_mm512_add_epi64(x0i, s), c.nx);
+        let y1i = _mm512_min_epi64(_mm512_add_epi64(y0i, s), c.ny);
+        let (ax, bx) = slab8(
+            pk.ln.ox,
+            pk.ln.invx,
+            pk.ln.posx,
+            pk.ln.zerox,
+            _mm512_cvtepi64_pd(x0i),
+            _mm512_cvtepi64_pd(x1i),
+        );
+        let (ay, by) = slab8(
+            pk.ln.oy,
+            pk.ln.invy,
+            pk.ln.posy,
+            pk.ln.zeroy,
+            _mm512_cvtepi64_pd(y0i),
+            _mm512_cvtepi64_pd(y1i),
+        );
+        let ta = _mm512_max_pd(_mm512_max_pd(pk.ln.t, ax), ay);
+        let tb = _mm512_min_pd(_mm512_min_pd(pk.ln.t1, bx), by);
+        // Node index in the tiled level (tiled_t of maxmip.rs).
+        let tile = _mm512_add_epi64(
+            _mm512_mullo_epi64(_mm512_srai_epi64::<2>(iy), txs),
+            _mm512_srai_epi64::<2>(ix),
+        );
+        let inner = _mm512_or_si512(
+            _mm512_slli_epi64::<2>(_mm512_and_si512(iy, c.three)),
+            _mm512_and_si512(ix, c.three),
+        );
+        let idx = _mm512_add_epi64(off, _mm512_add_epi64(_mm512_slli_epi64::<4>(tile), inner));
+        let ia: [i64; 8] = cast(idx);
+        let mut mv = [f32::NEG_INFINITY; 8];
+        for (m, &i) in mv.iter_mut().zip(&ia) {
+            *m = usize::try_from(i)
+                .ok()
+                .and_then(|i| mip.data.get(i))
+                .copied()
+                .unwrap_or(f32::NEG_INFINITY);
+        }
+        let m = _mm512_cvtps_pd(cast::<[f32; 8], __m256>(mv));
+        let za = _mm512_add_pd(pk.ln.oz, _mm512_mul_pd(ta, pk.ln.dz));
+        let zb = _mm512_add_pd(pk.ln.oz, _mm512_mul_pd(tb, pk.ln.dz));
+        let zmin = _mm512_min_pd(za, zb);
+        let inside = live
+            & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(ta, tb)
+            & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(zmin, m);
+        let lvl0 = _mm512_cmpeq_epi64_mask(lvl, c.zero_i);
+        let leaf = inside & lvl0;
+        let mut hit: __mmask8 = 0;
+        if leaf != 0 {
+            let (tas, tbs): ([f64; 8], [f64; 8]) = (cast(ta), cast(tb));
+            let (xs, ys): ([i64; 8], [i64; 8]) = (cast(ix), cast(iy));
+            for k in 0..PACKET_LANES {
+                if leaf & (1 << k) == 0 {
+                    continue;
+                }
+                let (Some(Some(wk)), Some(&r)) = (pk.walks.get(k), pk.ray_of.get(k)) else {
+                    continue;
+                };
+                let (Some(ray), Some(o)) = (rays.get(r), out.get_mut(r)) else {
+                    continue;
+                };
+                let (Some(&a), Some(&b), Some(&cx), Some(&cy)) =
+                    (tas.get(k), tbs.get(k), xs.get(k), ys.get(k))
+                else {
+                    continue;
+                };
+                o.cells += 1;
+                let (cx, cy) = (cx as u32, cy as u32);
+                if let Some(h) = super::cell::intersect(
+                    self.surface,
+                    &wk.lr,
+                    cx,
+                    cy,
+                    &self.corners(cx, cy),
+                    a,
+                    b,
+                ) {
+                    o.hit = Some(self.make_hit(ray, cx, cy, h));
+                    hit |= 1 << k;
                 }
             }
-            let descend = inside & !lvl0;
-            // Descend into the child holding the point at `ta`.
-            let l = _mm512_sub_epi64(lvl, one);
-            let cw = lookup(&w_t, l);
-            let ch = lookup(&h_t, l);
-            let inv = _mm512_castsi512_pd(_mm512_slli_epi64::<52>(_mm512_sub_epi64(c1023, l)));
-            let px = _mm512_add_pd(ln.ox, _mm512_mul_pd(ta, ln.dx));
-            let py = _mm512_add_pd(ln.oy, _mm512_mul_pd(ta, ln.dy));
-            let clamp = |c: __m512i, i: __m512i, n: __m512i| {
-                let lo = _mm512_add_epi64(i, i);
-                let c = _mm512_min_epi64(_mm512_max_epi64(c, lo), _mm512_add_epi64(lo, one));
-                _mm512_min_epi64(c, _mm512_sub_epi64(n, one))
-            };
-            let dxi = clamp(_mm512_cvttpd_epi64(_mm512_mul_pd(px, inv)), ix, cw);
-            let dyi = clamp(_mm512_cvttpd_epi64(_mm512_mul_pd(py, inv)), iy, ch);
-            // Skip to the neighbour through the face crossed first.
-            let exit = _mm512_min_pd(bx, by);
-            let st = _mm512_max_pd(exit, ln.t);
-            let sx =
-                _mm512_mask_add_epi64(ix, _mm512_cmp_pd_mask::<_CMP_LE_OQ>(bx, by), ix, ln.stepx);
-            let sy =
-                _mm512_mask_add_epi64(iy, _mm512_cmp_pd_mask::<_CMP_LE_OQ>(by, bx), iy, ln.stepy);
-            let gone = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(st, ln.t1)
-                | _mm512_cmpge_epi64_mask(_mm512_add_epi64(lvl, one), levels)
-                | _mm512_cmplt_epi64_mask(sx, zero_i)
-                | _mm512_cmplt_epi64_mask(sy, zero_i)
-                | _mm512_cmpge_epi64_mask(sx, w)
-                | _mm512_cmpge_epi64_mask(sy, h);
-            let up =
-                _mm512_cmpneq_epi64_mask(_mm512_srai_epi64::<1>(sx), _mm512_srai_epi64::<1>(ix))
-                    | _mm512_cmpneq_epi64_mask(
-                        _mm512_srai_epi64::<1>(sy),
-                        _mm512_srai_epi64::<1>(iy),
-                    );
-            let sx = _mm512_mask_srai_epi64::<1>(sx, up, sx);
-            let sy = _mm512_mask_srai_epi64::<1>(sy, up, sy);
-            let sl = _mm512_mask_add_epi64(lvl, up, lvl, one);
-            ln.ix = _mm512_mask_blend_epi64(descend, sx, dxi);
-            ln.iy = _mm512_mask_blend_epi64(descend, sy, dyi);
-            ln.lvl = _mm512_mask_blend_epi64(descend, sl, l);
-            ln.t = _mm512_mask_blend_pd(descend, st, ta);
-            let cont = live & !hit & (descend | !gone);
-            let ended = active & !cont;
-            active = cont;
-            if ended != 0 {
-                let steps: [i64; 8] = cast(ln.steps);
-                for k in 0..PACKET_LANES {
-                    if ended & (1 << k) == 0 {
-                        continue;
-                    }
-                    if let (Some(&r), Some(&n)) = (ray_of.get(k), steps.get(k)) {
-                        if let Some(o) = out.get_mut(r) {
-                            o.steps = u32::try_from(n).unwrap_or(u32::MAX);
-                        }
-                    }
-                    self.refill(
-                        rays,
-                        mip,
-                        out,
-                        &mut next,
-                        k,
-                        &mut walks,
-                        &mut ray_of,
-                        &mut ln,
-                        &mut active,
-                    );
+        }
+        let descend = inside & !lvl0;
+        // Descend into the child holding the point at `ta`.
+        let l = _mm512_sub_epi64(lvl, c.one);
+        let cw = lookup(&c.w_t, l);
+        let ch = lookup(&c.h_t, l);
+        let inv = _mm512_castsi512_pd(_mm512_slli_epi64::<52>(_mm512_sub_epi64(c.c1023, l)));
+        let px = _mm512_add_pd(pk.ln.ox, _mm512_mul_pd(ta, pk.ln.dx));
+        let py = _mm512_add_pd(pk.ln.oy, _mm512_mul_pd(ta, pk.ln.dy));
+        let one = c.one;
+        let clamp = |v: __m512i, i: __m512i, n: __m512i| {
+            let lo = _mm512_add_epi64(i, i);
+            let v = _mm512_min_epi64(_mm512_max_epi64(v, lo), _mm512_add_epi64(lo, one));
+            _mm512_min_epi64(v, _mm512_sub_epi64(n, one))
+        };
+        let dxi = clamp(_mm512_cvttpd_epi64(_mm512_mul_pd(px, inv)), ix, cw);
+        let dyi = clamp(_mm512_cvttpd_epi64(_mm512_mul_pd(py, inv)), iy, ch);
+        // Skip to the neighbour through the face crossed first.
+        let exit = _mm512_min_pd(bx, by);
+        let st = _mm512_max_pd(exit, pk.ln.t);
+        let sx = _mm512_mask_add_epi64(
+            ix,
+            _mm512_cmp_pd_mask::<_CMP_LE_OQ>(bx, by),
+            ix,
+            pk.ln.stepx,
+        );
+        let sy = _mm512_mask_add_epi64(
+            iy,
+            _mm512_cmp_pd_mask::<_CMP_LE_OQ>(by, bx),
+            iy,
+            pk.ln.stepy,
+        );
+        let gone = _mm512_cmp_pd_mask::<_CMP_GT_OQ>(st, pk.ln.t1)
+            | _mm512_cmpge_epi64_mask(_mm512_add_epi64(lvl, c.one), c.levels)
+            | _mm512_cmplt_epi64_mask(sx, c.zero_i)
+            | _mm512_cmplt_epi64_mask(sy, c.zero_i)
+            | _mm512_cmpge_epi64_mask(sx, w)
+            | _mm512_cmpge_epi64_mask(sy, h);
+        let up = _mm512_cmpneq_epi64_mask(_mm512_srai_epi64::<1>(sx), _mm512_srai_epi64::<1>(ix))
+            | _mm512_cmpneq_epi64_mask(_mm512_srai_epi64::<1>(sy), _mm512_srai_epi64::<1>(iy));
+        let sx = _mm512_mask_srai_epi64::<1>(sx, up, sx);
+        let sy = _mm512_mask_srai_epi64::<1>(sy, up, sy);
+        let sl = _mm512_mask_add_epi64(lvl, up, lvl, c.one);
+        pk.ln.ix = _mm512_mask_blend_epi64(descend, sx, dxi);
+        pk.ln.iy = _mm512_mask_blend_epi64(descend, sy, dyi);
+        pk.ln.lvl = _mm512_mask_blend_epi64(descend, sl, l);
+        pk.ln.t = _mm512_mask_blend_pd(descend, st, ta);
+        let cont = live & !hit & (descend | !gone);
+        let ended = pk.active & !cont;
+        pk.active = cont;
+        if ended != 0 {
+            let steps: [i64; 8] = cast(pk.ln.steps);
+            for k in 0..PACKET_LANES {
+                if ended & (1 << k) == 0 {
+                    continue;
                 }
+                if let (Some(&r), Some(&n)) = (pk.ray_of.get(k), steps.get(k)) {
+                    if let Some(o) = out.get_mut(r) {
+                        o.steps = u32::try_from(n).unwrap_or(u32::MAX);
+                    }
+                }
+                self.refill(
+                    rays,
+                    mip,
+                    out,
+                    next,
+                    k,
+                    &mut pk.walks,
+                    &mut pk.ray_of,
+                    &mut pk.ln,
+                    &mut pk.active,
+                );
             }
         }
     }
