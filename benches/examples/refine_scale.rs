@@ -5,7 +5,7 @@
 //! **memory-mapped** (relief-io's `MappedGrid`), preprocessed, and refined for the same camera
 //! and pixel error (same world extent: the spacing is `160 / f` m) with three data layouts:
 //! the `f32` error and radius arrays with the mapped heights (linear), and the 8-byte records in
-//! linear and in subtree-contiguous Z-order (interleaved) layout. Times are the fastest and the
+//! linear and in the hierarchical interleaved layout. Times are the fastest and the
 //! median of `RUNS` (default 15) refinements of the indexed triangle list.
 //!
 //! `cargo run --release -p relief-benches --example refine_scale -- 1 4 16`
@@ -125,7 +125,7 @@ fn main() {
             for (name, h) in [
                 ("f32 arrays + heights, linear (8+4)", &full),
                 ("records, linear (8)", &lin),
-                ("records, interleaved Z-order (8)", &il),
+                ("records, interleaved (8)", &il),
             ] {
                 let (t, best, med) = time(h, &hf, c, runs);
                 println!(

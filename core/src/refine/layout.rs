@@ -9,14 +9,18 @@
 //!
 //! Two layouts ([`RecordLayout`]):
 //! - **Linear**: row-major, record `y * width + x`, like the heightfield.
-//! - **Interleaved**: subtree-contiguous Z-order. The `N x N` samples with `x, y < N` (`N` the
-//!   enclosing square's side) are stored in Morton order (bits of `x` and `y` interleaved), so
-//!   every aligned `2^j x 2^j` block, and with it every subtree of the bisection hierarchy below
-//!   a vertex, occupies a few contiguous runs; the square's last column and row follow. This is
-//!   the Z-order variant of SOAR's hierarchical (interleaved quadtree) indexing: the same
-//!   locality goal, with an index computed from `(x, y)` by bit interleaving instead of SOAR's
-//!   parent-to-child index arithmetic. It needs `(N + 1)^2` records, more than `width * height`
-//!   when the grid is not `(2^k + 1)^2` ([`records_len`]).
+//! - **Interleaved**: hierarchical, after SOAR's interleaved quadtrees. The vertices of each
+//!   half-size `s` (from the coarsest, `N / 2`, to 1; `N` the enclosing square's side) are
+//!   stored together: first the centres of the `2s` squares (an `m x m` lattice, `m = N / 2s`),
+//!   then the horizontal and the vertical edge midpoints (`m x (m + 1)` lattices), each
+//!   lattice in Z-order (Morton: bits of the lattice coordinates interleaved) with its extra
+//!   row or column after it; the square's four corners come last. The coarse levels, which
+//!   every frame visits, are dense and small (the top `2j` levels fit in about `4^j` records),
+//!   and a vertex's children sit at the same Z-order position in the next lattices, so a
+//!   subtree's records on each level form a few contiguous runs (SOAR stores its quadtrees with
+//!   parent-to-child index arithmetic; this computes the same kind of index from `(x, y)`).
+//!   It needs `(N + 1)^2` records (exactly the grid for `(2^k + 1)^2` grids, more otherwise;
+//!   [`records_len`]).
 //!
 //! Quantising radii up breaks exact sphere nesting (a parent's rounded radius can fall short of a
 //! child's rounded radius plus their distance), so [`pack_records`] re-nests the rounded radii
@@ -120,21 +124,40 @@ fn spread(v: u64) -> u64 {
     (v | (v << 1)) & 0x5555_5555_5555_5555
 }
 
+/// Morton code of `(a, b)`.
+#[inline(always)]
+fn morton(a: u64, b: u64) -> u64 {
+    spread(a) | (spread(b) << 1)
+}
+
 /// Record index of grid point `(x, y)` (inside the grid) for a layout.
 #[inline(always)]
 pub(crate) fn record_index(layout: RecordLayout, g: &RefineGrid, x: u64, y: u64) -> usize {
     match layout {
         RecordLayout::Linear => (y * g.width() as u64 + x) as usize,
-        RecordLayout::Interleaved => {
-            let n = g.side() as u64;
-            if x < n && y < n {
-                (spread(x) | (spread(y) << 1)) as usize
-            } else if x == n {
-                (n * n + y) as usize
-            } else {
-                (n * n + n + 1 + x) as usize
-            }
-        }
+        RecordLayout::Interleaved => interleaved_index(g.side() as u64, x, y) as usize,
+    }
+}
+
+/// The interleaved index in a square of side `n = 2^k`: level by level from the coarsest, and
+/// within a level's lattice in Z-order (see the module documentation).
+#[inline(always)]
+fn interleaved_index(n: u64, x: u64, y: u64) -> u64 {
+    let bits = x | y;
+    let t = bits.trailing_zeros() & 63;
+    let s = 1u64 << t;
+    if bits == 0 || s >= n {
+        // The square's four corners, last.
+        let c = u64::from(x != 0) + 2 * u64::from(y != 0);
+        return (n + 1) * (n + 1) - 4 + c;
+    }
+    let m = n >> (t + 1); // lattice side of this half-size
+    let (a, b) = (x >> (t + 1), y >> (t + 1));
+    let base = m * m + 2 * m - 3; // records of all coarser half-sizes
+    match ((x >> t) & 1, (y >> t) & 1) {
+        (1, 1) => base + morton(a, b),
+        (1, _) => base + m * m + if b < m { morton(a, b) } else { m * m + a },
+        _ => base + 2 * m * m + m + if a < m { morton(a, b) } else { m * m + b },
     }
 }
 
@@ -268,3 +291,39 @@ pub fn pack_records<'a, T: Terrain>(
 
 /// Relative inflation when re-nesting rounded radii (floating point).
 const RENEST_MARGIN: f64 = 1.0 / (1u64 << 20) as f64;
+
+#[cfg(test)]
+mod index_tests {
+    use super::*;
+    use std::vec;
+
+    /// The interleaved index is a bijection of the `(N + 1)^2` points onto `0..(N + 1)^2`, and
+    /// the coarse levels come first.
+    #[test]
+    fn interleaved_index_is_a_permutation() {
+        for k in 1..=6 {
+            let n = 1u64 << k;
+            let mut seen = vec![false; ((n + 1) * (n + 1)) as usize];
+            for y in 0..=n {
+                for x in 0..=n {
+                    let i = interleaved_index(n, x, y) as usize;
+                    assert!(!seen[i], "n={n} ({x},{y}) -> {i} twice");
+                    seen[i] = true;
+                }
+            }
+            assert!(seen.iter().all(|&s| s));
+            let c = n / 2;
+            assert_eq!(interleaved_index(n, c, c), 0);
+            let g = RefineGrid::new(n as u32 + 1, n as u32 + 1).unwrap();
+            let li = |x: u64, y: u64| (g.level(x as u32, y as u32), interleaved_index(n, x, y));
+            for (x, y) in [(1, 1), (3, 2), (n - 1, n)] {
+                for (x2, y2) in [(c, 0), (0, c)] {
+                    let ((l1, i1), (l2, i2)) = (li(x, y), li(x2, y2));
+                    if l1 > l2 {
+                        assert!(i1 > i2);
+                    }
+                }
+            }
+        }
+    }
+}

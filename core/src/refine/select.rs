@@ -725,8 +725,13 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     pub(crate) fn walk_all<S: Sink>(&self, sink: &mut S, cull_keeps: bool) {
         let n = self.g.side() as i64;
         let mask = self.view.map_or(0, |v| v.mask);
-        self.walk(sink, (n, n), (0, 0), (n, 0), mask, 0, cull_keeps);
-        self.walk(sink, (0, 0), (n, n), (0, n), mask, 0, cull_keeps);
+        for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
+            if self.g.is_square() {
+                self.walk::<S, true>(sink, l, r, a, mask, 0, cull_keeps);
+            } else {
+                self.walk::<S, false>(sink, l, r, a, mask, 0, cull_keeps);
+            }
+        }
     }
 
     /// View-independent traversal driven by the bitmap of kept vertices (`SQUARE`: the grid
@@ -777,7 +782,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// Triangle `(l, r, a)`, counter-clockwise, hypotenuse `l-r`, split vertex at `level`.
     /// Recursion depth at most `levels() <= 60`.
     #[allow(clippy::too_many_arguments)]
-    fn walk<S: Sink>(
+    fn walk<S: Sink, const SQUARE: bool>(
         &self,
         sink: &mut S,
         l: (i64, i64),
@@ -787,7 +792,12 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         level: u32,
         cull_keeps: bool,
     ) {
-        let class = self.g.classify([l, r, a]);
+        // A square grid fills the hierarchy's square: every triangle is inside.
+        let class = if SQUARE {
+            Class::Inside
+        } else {
+            self.g.classify([l, r, a])
+        };
         if class == Class::Outside {
             return;
         }
@@ -803,8 +813,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         };
         match d {
             Decision::Split(p) => {
-                self.walk(sink, a, l, m, p, level + 1, cull_keeps);
-                self.walk(sink, r, a, m, p, level + 1, cull_keeps);
+                self.walk::<S, SQUARE>(sink, a, l, m, p, level + 1, cull_keeps);
+                self.walk::<S, SQUARE>(sink, r, a, m, p, level + 1, cull_keeps);
             }
             Decision::Keep => sink.tri(l, r, a),
             Decision::Cull => {
