@@ -2,7 +2,10 @@
 //! hand): every scene gets its own `Renderer` on one device; frames are rendered round-robin
 //! (one frame of each scene per round, so load on a shared machine hits all scenes alike) and
 //! each scene reports the median over rounds of its frame time (sum of its per-frame passes,
-//! `Renderer::render_profiled`; setup passes excluded).
+//! `Renderer::render_profiled`: GPU timestamps between the passes of one submission where the
+//! adapter has them, else wall-clock per pass; setup passes excluded). Silhouette partitioning
+//! needs the whole terrain in front of the camera, so it is measured from a second camera south
+//! of the map against the bare frame from that camera.
 //!
 //! ```sh
 //! cargo run --release -p relief-examples --example gpu_effects -- data/puget_sound_1k.png 640x360 15
@@ -42,11 +45,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         radius: 100.0,
         depth: 80.0,
     };
-    let mut scenes: Vec<(String, Renderer)> = Vec::new();
+    let south = Camera::new(
+        Vec3::new(82_000.0, -20_000.0, 9000.0),
+        Vec3::new(82_000.0, 60_000.0, 0.0),
+        60.0,
+        w,
+        h,
+    )?;
+    // (name, renderer, camera, index of the baseline row)
+    let mut scenes: Vec<(String, Renderer, Camera, usize)> = Vec::new();
     let mut add = |name: &str, scene: Scene| -> Result<(), relief_wgpu::Error> {
         scenes.push((
             name.to_string(),
             Renderer::new(&gpu.device, &gpu.queue, &hf, scene)?,
+            cam,
+            0,
         ));
         Ok(())
     };
@@ -65,15 +78,34 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "method march, no effects",
         Scene::new().with_method(Method::march()),
     )?;
+    add(
+        "method cascades (RBF, 3 x 512^2 texels), no effects",
+        Scene::new().with_method(Method::cascades()),
+    )?;
+    let base = scenes.len();
+    for (name, scene) in [
+        ("bare (maxmip), camera south of the map", Scene::new()),
+        (
+            "method silhouette, camera south of the map",
+            Scene::new().with_method(Method::Silhouette),
+        ),
+    ] {
+        scenes.push((
+            name.to_string(),
+            Renderer::new(&gpu.device, &gpu.queue, &hf, scene)?,
+            south,
+            base,
+        ));
+    }
     // Warm-up frame (setup passes, pipeline compilation), then timed rounds.
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); scenes.len()];
     let mut passes: Vec<String> = vec![String::new(); scenes.len()];
-    for (_, r) in scenes.iter_mut() {
-        r.render(&gpu.device, &gpu.queue, &cam)?;
+    for (_, r, c, _) in scenes.iter_mut() {
+        r.render(&gpu.device, &gpu.queue, c)?;
     }
     for _ in 0..rounds {
-        for (k, (_, r)) in scenes.iter_mut().enumerate() {
-            let (_, t) = r.render_profiled(&gpu.device, &gpu.queue, &cam)?;
+        for (k, (_, r, c, _)) in scenes.iter_mut().enumerate() {
+            let (_, t) = r.render_profiled(&gpu.device, &gpu.queue, c)?;
             times[k].push(t.iter().map(|p| p.ms).sum());
             passes[k] = t
                 .iter()
@@ -88,17 +120,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     };
     let meds: Vec<f64> = times.iter_mut().map(median).collect();
     println!(
-        "device: {} ({:?}) | image {w} x {h} | median of {rounds} round-robin rounds\n",
-        gpu.info.name, gpu.info.backend
+        "device: {} ({:?}) | image {w} x {h} | median of {rounds} round-robin rounds | pass times: {} clock\n",
+        gpu.info.name,
+        gpu.info.backend,
+        scenes[0].1.clock().as_str()
     );
     println!("| scene | passes per frame | frame ms (median) | vs bare frame |");
     println!("|---|---|---|---|");
-    for (k, (name, _)) in scenes.iter().enumerate() {
+    for (k, (name, _, _, b)) in scenes.iter().enumerate() {
         println!(
             "| {name} | {} | {:.1} | {:.2}x |",
             passes[k],
             meds[k],
-            meds[k] / meds[0]
+            meds[k] / meds[*b]
         );
     }
     Ok(())

@@ -126,8 +126,9 @@ pub struct Gpu {
 /// [`wgpu::InstanceDescriptor::new_without_display_handle_from_env`]); on machines without a GPU,
 /// Mesa's lavapipe Vulkan driver works. [`Error::NoAdapter`] when no adapter exists at all.
 /// The device gets the adapter's own limits, and [`wgpu::Features::TIMESTAMP_QUERY`] with
-/// [`wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS`] when the adapter has both (for GPU pass
-/// times, [`scene::Clock`]).
+/// [`wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS`] when the adapter has both and is not a
+/// CPU adapter (for GPU pass times, [`scene::Clock`]; lavapipe's timestamps do not wait for
+/// compute work, see [`scene`]).
 ///
 /// ```no_run
 /// match relief_wgpu::headless() {
@@ -144,11 +145,12 @@ pub fn headless() -> Result<Gpu, Error> {
     .map_err(|e| Error::NoAdapter(e.to_string()))?;
     let info = adapter.get_info();
     let timing = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
-    let features = if adapter.features().contains(timing) {
-        timing
-    } else {
-        wgpu::Features::empty()
-    };
+    let features =
+        if adapter.features().contains(timing) && info.device_type != wgpu::DeviceType::Cpu {
+            timing
+        } else {
+            wgpu::Features::empty()
+        };
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
         label: Some("relief-wgpu headless"),
         required_features: features,

@@ -32,9 +32,11 @@
 //!
 //! Pass times ([`Renderer::render_profiled`]) come from GPU timestamp queries written between
 //! the passes of one submission when the device has [`wgpu::Features::TIMESTAMP_QUERY`] and
-//! [`wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS`] ([`crate::headless`] requests them when
-//! the adapter offers them), else from the wall clock around one submission per pass
-//! ([`Clock`]).
+//! [`wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS`], else from the wall clock around one
+//! submission per pass ([`Clock`]). [`crate::headless`] requests the features from hardware
+//! adapters only: Mesa's lavapipe offers them, but its timestamps do not wait for running
+//! compute work (measured: with several renderers on one device, a 640 x 360 ray-cast pass
+//! that takes about 150 ms read 0.03 ms), so on a CPU adapter the wall clock is the honest one.
 
 use crate::cascade::CascadeRayCast;
 use crate::mesh::{DepthTarget, ResolvePass};
