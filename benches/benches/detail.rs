@@ -3,7 +3,7 @@
 //! tileable detail map at factor 64 (a 65537^2 virtual grid, 2.5 m spacing), for low flyover
 //! views. Triangles/s of detail refinement (constant and measured detail errors) against
 //! base-only SOAR refinement (relief_core::refine::Refiner) of the same views and pixel error,
-//! in the same run; plus the one-off DetailBounds::measure. Prints the triangle counts per mode
+//! in the same run; plus the one-off DetailBounds::measure(_local). Prints the triangle counts per mode
 //! to stderr.
 //!
 //! `cargo bench -p relief-benches --bench detail`
@@ -11,8 +11,8 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    detail_scratch_len, hierarchy_len, preprocess, scratch_len, Criterion as Crit, DetailBounds,
-    DetailRefiner, Hierarchy, Refiner, View,
+    detail_scratch_len, hierarchy_len, local_bounds_len, preprocess, scratch_len,
+    Criterion as Crit, DetailBounds, DetailRefiner, Hierarchy, Refiner, View,
 };
 use relief_core::{Camera, Composed, Heightfield, Surface, Terrain};
 use std::hint::black_box;
@@ -82,7 +82,7 @@ const TAU: f32 = 2.0;
 fn detail_frame<'a>(
     h: &'a Hierarchy<'a>,
     c: &'a Composed<'a, f32, f32>,
-    b: &DetailBounds,
+    b: &DetailBounds<'a>,
     cam: &Camera,
     buf: &mut (Vec<u64>, Vec<[f32; 3]>, Vec<[u32; 3]>),
 ) -> usize {
@@ -103,6 +103,8 @@ fn benches(crit: &mut Criterion) {
     let hier = preprocess(&hf, &mut e, &mut r).unwrap();
     let measured = DetailBounds::measure(&c);
     let constant = DetailBounds::constant(&c, 0.5).unwrap();
+    let mut local_buf = vec![0.0f32; local_bounds_len(dem.width, dem.height)];
+    let local = DetailBounds::measure_local(&c, &mut local_buf).unwrap();
     let cams = cameras(&c);
 
     // Triangle counts per mode over the views (for the throughput and the report).
@@ -121,7 +123,7 @@ fn benches(crit: &mut Criterion) {
     }
     let mut counts = Vec::new();
     let mut max_t = 0usize;
-    for b in [&constant, &measured] {
+    for b in [&constant, &measured, &local] {
         let mut total = 0usize;
         for cam in &cams {
             let dr = DetailRefiner::new(&hier, &c, b, &View::new(cam, TAU).unwrap()).unwrap();
@@ -137,11 +139,12 @@ fn benches(crit: &mut Criterion) {
         vec![[0u32; 3]; max_t],
     );
     eprintln!(
-        "detail bench, {} views, tau {TAU} px: base-only {base_tris} triangles; detail (constant 0.5 m) {}; detail (measured) {} (level-0 bound {:.2} m)",
+        "detail bench, {} views, tau {TAU} px: base-only {base_tris} triangles; detail (constant 0.5 m) {}; detail (measured, global twist) {} (level-0 bound {:.2} m); detail (measured, local twist) {}",
         cams.len(),
         counts[0],
         counts[1],
-        measured.error(0).unwrap_or(0.0)
+        measured.error(0).unwrap_or(0.0),
+        counts[2]
     );
 
     let mut g = crit.benchmark_group("detail_flyover_65537");
@@ -181,12 +184,32 @@ fn benches(crit: &mut Criterion) {
             black_box(t)
         })
     });
+    g.throughput(Throughput::Elements(counts[2] as u64));
+    g.bench_function("detail_local_bound", |bch| {
+        bch.iter(|| {
+            let mut t = 0;
+            for cam in &cams {
+                t += detail_frame(&hier, &c, &local, cam, &mut dbuf);
+            }
+            black_box(t)
+        })
+    });
     g.finish();
 
     let mut g = crit.benchmark_group("detail_bounds_1024");
     g.sample_size(10);
     g.bench_function("measure", |bch| {
         bch.iter(|| black_box(DetailBounds::measure(black_box(&c))))
+    });
+    g.bench_function("measure_local", |bch| {
+        let mut buf = vec![0.0f32; local_bounds_len(dem.width, dem.height)];
+        bch.iter(|| {
+            black_box(
+                DetailBounds::measure_local(black_box(&c), &mut buf)
+                    .unwrap()
+                    .error(0),
+            )
+        })
     });
     g.finish();
 }

@@ -137,6 +137,8 @@ fn detail_mesh_is_crack_free_and_on_the_composed_surface() {
         assert_eq!((bt + dt) as usize, tris.len());
         assert!(bt > 0 && dt > 0, "{v}");
         assert_eq!(v["detail_errors_measured"], extra.is_none());
+        let kind = if extra.is_none() { "local" } else { "constant" };
+        assert_eq!(v["detail_bounds"], kind);
         // The mesh: conforming (holes only where culled) on the composed lattice.
         let mut o = CheckOptions::grid((w - 1) * k + 1, (h - 1) * k + 1, 2.0, 2.0);
         o.allow_holes = true;

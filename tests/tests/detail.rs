@@ -6,8 +6,8 @@
 use proptest::prelude::*;
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    detail_scratch_len, preprocess, preprocess_compact, DetailBounds, DetailCounts, DetailRefiner,
-    Hierarchy, View,
+    detail_scratch_len, local_bounds_len, preprocess, preprocess_compact, DetailBounds,
+    DetailCounts, DetailRefiner, Hierarchy, View,
 };
 use relief_core::{Camera, Composed, Heightfield, Sample, Scale, Terrain};
 use relief_io::{read_dem, ReadOptions};
@@ -127,7 +127,7 @@ proptest! {
     fn detail_mesh_is_crack_free_where_detail_starts(
         bw in 3u32..14, bh in 3u32..14, shift in 1u32..5, dsz in 2u32..12,
         seed in 0u64..1000, ex in -0.2f32..1.2, ey in -0.2f32..1.2, ez in 0.5f32..20.0,
-        tau in 0.3f32..6.0, compact in any::<bool>(), constant in any::<bool>(),
+        tau in 0.3f32..6.0, compact in any::<bool>(), mode in 0u8..3,
     ) {
         let factor = 1u32 << shift;
         let bs = tileable(bw, bh, 1, 30.0, seed);
@@ -142,10 +142,11 @@ proptest! {
         } else {
             preprocess(&base, &mut e, &mut r).unwrap()
         };
-        let bounds = if constant {
-            DetailBounds::constant(&c, 0.3).unwrap()
-        } else {
-            DetailBounds::measure(&c)
+        let mut buf = vec![0.0f32; local_bounds_len(bw, bh)];
+        let bounds = match mode {
+            0 => DetailBounds::constant(&c, 0.3).unwrap(),
+            1 => DetailBounds::measure(&c),
+            _ => DetailBounds::measure_local(&c, &mut buf).unwrap(),
         };
         let ext = c.extent();
         let eye = Vec3::new(ex * ext.x, ey * ext.y, ez);
@@ -176,7 +177,8 @@ fn detail_starts_inside_the_view_without_cracks() {
     let c = Composed::new(base, detail, 16).unwrap();
     let (mut e, mut r) = hierarchy_pair(&base);
     let h = preprocess(&base, &mut e, &mut r).unwrap();
-    let bounds = DetailBounds::measure(&c);
+    let mut buf = vec![0.0f32; local_bounds_len(33, 33)];
+    let bounds = DetailBounds::measure_local(&c, &mut buf).unwrap();
     let cam = Camera::new(
         Vec3::new(500.0, 480.0, 45.0),
         Vec3::new(900.0, 800.0, 0.0),

@@ -379,6 +379,57 @@ pub unsafe extern "C" fn pc_refine(
 
 use relief_core::refine::{DetailBounds, DetailRefiner};
 
+/// `DetailBounds::measure_local` and refinement with it (buffer from the caller).
+#[no_mangle]
+pub unsafe extern "C" fn pc_detail_local(
+    p: *const u16,
+    len: usize,
+    w: u32,
+    h: u32,
+    d: *const f32,
+    dlen: usize,
+    dw: u32,
+    dh: u32,
+    factor: u32,
+    local: *mut f32,
+    local_len: usize,
+    qerr: *mut u16,
+    n: usize,
+    cam: &[f32; 8],
+) -> f64 {
+    let Ok(hf) = Heightfield::new(view(p, len), w, h) else {
+        return -1.0;
+    };
+    let Ok(det) = Heightfield::new(view(d, dlen), dw, dh) else {
+        return -1.0;
+    };
+    let Ok(c) = Composed::new(hf, det, factor) else {
+        return -1.0;
+    };
+    let Ok(b) = DetailBounds::measure_local(&c, view_mut(local, local_len)) else {
+        return -2.0;
+    };
+    let Ok(camera) = Camera::new(
+        Vec3::new(cam[0], cam[1], cam[2]),
+        Vec3::new(cam[3], cam[4], cam[5]),
+        cam[6],
+        64,
+        64,
+    ) else {
+        return -1.0;
+    };
+    let Ok(v) = View::new(&camera, cam[7]) else {
+        return -1.0;
+    };
+    let Ok(hc) = preprocess_compact(c.base(), view_mut(qerr, n)) else {
+        return -2.0;
+    };
+    match DetailRefiner::new(&hc, &c, &b, &v) {
+        Ok(r) => r.triangle_count() as f64,
+        Err(_) => -3.0,
+    }
+}
+
 /// Detail refinement of a composed surface: both bounds, count-only mode and the triangle list.
 #[no_mangle]
 pub unsafe extern "C" fn pc_detail(

@@ -9,8 +9,8 @@ use crate::{print_out, CliError, CliResult};
 use clap::Args;
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    detail_scratch_len, hierarchy_len, preprocess, preprocess_compact, DetailBounds, DetailCounts,
-    DetailRefiner, Hierarchy, View,
+    detail_scratch_len, hierarchy_len, local_bounds_len, preprocess, preprocess_compact,
+    DetailBounds, DetailCounts, DetailRefiner, Hierarchy, View,
 };
 use relief_core::{Camera, Composed, Heightfield, Scale, Terrain};
 use relief_io::{read_dem, ReadOptions};
@@ -49,7 +49,8 @@ pub struct DetailArgs {
     )]
     pub detail_z_offset: f32,
     /// Constant error of every detail level (world z units), LOD by distance only; default: a
-    /// bound measured from the base's bilinear twist and the detail map (DetailBounds::measure).
+    /// true bound measured from the base's bilinear twist near each vertex and the detail map
+    /// (DetailBounds::measure_local).
     #[arg(long, value_name = "E", requires = "detail")]
     pub detail_error: Option<f32>,
 }
@@ -131,9 +132,17 @@ pub fn run(d: &DetailArgs, a: Common<'_>) -> CliResult {
     };
     let preprocess_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = Instant::now();
+    let mut local = vec![
+        0.0f32;
+        if d.detail_error.is_some() {
+            0
+        } else {
+            local_bounds_len(w, h)
+        }
+    ];
     let bounds = match d.detail_error {
         Some(e) => DetailBounds::constant(&c, e)?,
-        None => DetailBounds::measure(&c),
+        None => DetailBounds::measure_local(&c, &mut local)?,
     };
     let detail_bounds_ms = t1.elapsed().as_secs_f64() * 1e3;
     let cam = Camera::new(eye, target, a.fov, iw, ih)?;
@@ -192,6 +201,7 @@ pub fn run(d: &DetailArgs, a: Common<'_>) -> CliResult {
             })).collect::<Vec<_>>(),
             "detail_errors": errs,
             "detail_errors_measured": bounds.is_measured(),
+            "detail_bounds": if bounds.is_local() { "local" } else { "constant" },
             "max_error_measured": serde_json::Value::Null,
             "preprocess_ms": preprocess_ms,
             "detail_bounds_ms": detail_bounds_ms,

@@ -78,16 +78,64 @@ pub const MEASURE_PERIOD_LIMIT: u64 = 16;
 /// assert_eq!(b.detail_range(), (0.0, 1.0));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct DetailBounds {
+pub struct DetailBounds<'a> {
     shift: u32,
     errors: [f32; LEVELS],
     d_lo: f32,
     d_hi: f32,
     twist: f32,
     exact: bool,
+    /// Unit-twist error per detail level, nested (non-increasing).
+    tau: [f32; LEVELS],
+    /// Detail-map part per detail level, nested (suffix maximum).
+    delta: [f32; LEVELS],
+    /// Largest `|height|` of base plus detail (for the rounding margin).
+    max_abs: f32,
+    /// [`Self::measure_local`]: nested twist per base vertex, then twist per base cell.
+    local: Option<&'a [f32]>,
 }
 
-impl DetailBounds {
+/// Relative and absolute (times the largest height) rounding margin of measured bounds.
+const MARGIN: f64 = 1.0 / (1u64 << 20) as f64;
+
+/// Length of the buffer of [`DetailBounds::measure_local`] for a `width x height` base: one
+/// `f32` per base vertex and one per base cell, `w h + (w - 1)(h - 1)` (saturating).
+///
+/// ```
+/// assert_eq!(relief_core::refine::local_bounds_len(3, 3), 9 + 4);
+/// ```
+#[must_use]
+pub const fn local_bounds_len(width: u32, height: u32) -> usize {
+    (width as usize)
+        .saturating_mul(height as usize)
+        .saturating_add(
+            (width.saturating_sub(1) as usize).saturating_mul(height.saturating_sub(1) as usize),
+        )
+}
+
+/// Chebyshev reach of the descendants of a level-`level` vertex in a grid of `levels` levels
+/// whose enclosing square has `side` cells: the sum over deeper levels of the offset from a vertex
+/// to its children (`h` for a centre of half-size `h`, `h / 2` for an edge). Nested exactly:
+/// a parent's reach is at least its offset to a child plus the child's reach.
+fn reach(side: u64, levels: u32, level: u32) -> i64 {
+    let mut r = 0i64;
+    for l in level..levels.min(64) {
+        let h = side.checked_shr(l / 2 + 1).unwrap_or(0) as i64;
+        r = r.saturating_add(if l % 2 == 0 { h } else { h / 2 });
+    }
+    r
+}
+
+/// Cells `lo..=hi` (clamped to `0..cells`) whose closed extent `[c K, (c + 1) K]` meets
+/// `[a, b]` (virtual coordinates, `K = 2^shift`); `None` if none.
+fn cell_span(a: i64, b: i64, shift: u32, cells: i64) -> Option<(i64, i64)> {
+    // ceil(a / K) - 1 and floor(b / K), with arithmetic shifts (floor division).
+    let lo = (-((a.saturating_neg()) >> shift)).saturating_sub(1).max(0);
+    let hi = (b >> shift).min(cells - 1);
+    (lo <= hi).then_some((lo, hi))
+}
+
+impl<'a> DetailBounds<'a> {
     /// The same `error` (world z units, finite, `>= 0`) for every detail level: LOD selection by
     /// distance only (seed 004, section 6.3), for static or dynamic detail. Scans the detail map
     /// once for its height range and the base once for its largest bilinear twist.
@@ -105,14 +153,14 @@ impl DetailBounds {
     pub fn constant<B: Sample, D: Sample>(
         c: &Composed<'_, B, D>,
         error: f32,
-    ) -> Result<Self, Error> {
+    ) -> Result<DetailBounds<'static>, Error> {
         if !(error.is_finite() && error >= 0.0) {
             return Err(Error::InvalidParameter {
                 name: "detail_error",
                 value: error,
             });
         }
-        let mut b = Self::scan(c);
+        let mut b = DetailBounds::scan(c);
         let n = b.detail_levels() as usize;
         for e in b.errors.iter_mut().take(n) {
             *e = error;
@@ -146,8 +194,8 @@ impl DetailBounds {
     /// assert!(b.error(0).unwrap() < 1e-5);
     /// ```
     #[must_use]
-    pub fn measure<B: Sample, D: Sample>(c: &Composed<'_, B, D>) -> Self {
-        let mut b = Self::scan(c);
+    pub fn measure<B: Sample, D: Sample>(c: &Composed<'_, B, D>) -> DetailBounds<'static> {
+        let mut b = DetailBounds::scan(c);
         let d = c.detail();
         let k = 1u64 << b.shift;
         let (dw, dh) = (u64::from(d.width()), u64::from(d.height()));
@@ -173,26 +221,157 @@ impl DetailBounds {
                 range
             };
             // Margin for the f32 arithmetic of the composed heights (a few ulps).
-            let e = (twist * tau + delta) * (1.0 + 1.0 / (1u64 << 20) as f64)
-                + max_abs / (1u64 << 20) as f64;
+            let e = (twist * tau + delta) * (1.0 + MARGIN) + max_abs * MARGIN;
             if let Some(s) = b.errors.get_mut(j as usize) {
                 *s = round_up(e);
             }
-        }
-        // Nest: a level's error covers every finer level's.
-        let mut acc = 0.0f32;
-        for j in (0..n as usize).rev() {
-            if let Some(s) = b.errors.get_mut(j) {
-                acc = acc.max(*s);
-                *s = acc;
+            if let Some(s) = b.tau.get_mut(j as usize) {
+                *s = round_up(tau);
+            }
+            if let Some(s) = b.delta.get_mut(j as usize) {
+                *s = round_up(delta);
             }
         }
+        // Nest: a level's error covers every finer level's.
+        let (mut acc, mut at, mut ad) = (0.0f32, 0.0f32, 0.0f32);
+        for j in (0..n as usize).rev() {
+            if let (Some(s), Some(t), Some(d)) =
+                (b.errors.get_mut(j), b.tau.get_mut(j), b.delta.get_mut(j))
+            {
+                acc = acc.max(*s);
+                *s = acc;
+                at = at.max(*t);
+                *t = at;
+                ad = ad.max(*d);
+                *d = ad;
+            }
+        }
+        b.max_abs = round_up(max_abs);
         b.exact = periodic;
         b
     }
 
+    /// [`Self::measure`] with the base part made local: instead of the largest twist of the whole
+    /// base, a detail vertex uses the largest twist of the base cells within the Chebyshev reach
+    /// of its descendants (the cells its and their triangles lie in), and a base vertex the
+    /// largest over its descendants, so the bound stays true and nested while a steep cell
+    /// somewhere no longer inflates every detail vertex. `buffer` (at least
+    /// [`local_bounds_len`] of the base) receives one nested twist per base vertex and the
+    /// twist of every base cell; the refiner reads them. Cost: [`Self::measure`] plus a few
+    /// passes over the base.
+    ///
+    /// ```
+    /// use relief_core::refine::{local_bounds_len, DetailBounds};
+    /// use relief_core::{Composed, Error, Heightfield};
+    /// // A flat base with one twisted cell in a corner.
+    /// let mut s = vec![0.0f32; 81];
+    /// s[0] = 40.0;
+    /// let base = Heightfield::new(&s, 9, 9).unwrap();
+    /// let d = Heightfield::new(&[0.0f32; 4], 2, 2).unwrap();
+    /// let c = Composed::new(base, d, 4).unwrap();
+    /// let mut buf = vec![0.0f32; local_bounds_len(9, 9)];
+    /// let local = DetailBounds::measure_local(&c, &mut buf).unwrap();
+    /// assert!(local.is_local() && local.error(0) == DetailBounds::measure(&c).error(0));
+    /// assert!(matches!(
+    ///     DetailBounds::measure_local(&c, &mut vec![0.0; 10]),
+    ///     Err(Error::BufferTooSmall { .. })
+    /// ));
+    /// ```
+    pub fn measure_local<B: Sample, D: Sample>(
+        c: &Composed<'_, B, D>,
+        buffer: &'a mut [f32],
+    ) -> Result<DetailBounds<'a>, Error> {
+        let base = c.base();
+        let (bw, bh) = (base.width(), base.height());
+        need(local_bounds_len(bw, bh), buffer.len())?;
+        let g = RefineGrid::new(bw, bh)?;
+        let mut b = DetailBounds::measure(c);
+        let n = g.len();
+        let cw = (bw - 1) as usize;
+        let (tb, cells) = buffer.split_at_mut(n.min(buffer.len()));
+        for cy in 0..bh.saturating_sub(1) {
+            for cx in 0..bw.saturating_sub(1) {
+                let [p, q, r, s] = base.cell_corners(cx, cy);
+                let t = (f64::from(p) - f64::from(q) - f64::from(r) + f64::from(s)).abs();
+                if let Some(o) = cells.get_mut(cy as usize * cw + cx as usize) {
+                    *o = round_up(t);
+                }
+            }
+        }
+        tb.fill(0.0);
+        let shift = b.shift;
+        if shift > 0 {
+            let levels = g.levels() + 2 * shift;
+            let vside = u64::from(g.side()) << shift;
+            let r = reach(vside, levels, g.levels().saturating_sub(1));
+            let (wi, hi) = (i64::from(bw), i64::from(bh));
+            let idx = |x: i64, y: i64| y as usize * bw as usize + x as usize;
+            let mut h = 1i64;
+            let nside = i64::from(g.side());
+            // Bottom-up over the base hierarchy: the finest level (edges of half-size 1) takes
+            // the cells within its reach; every coarser vertex the maximum of its children.
+            // Loops: levels x width x height vertices (each finest one over at most 5 x 5 cells).
+            while h < nside {
+                for pass in 0..3 {
+                    let (x0, y0) = match pass {
+                        0 => (h, 0),
+                        1 => (0, h),
+                        _ => (h, h),
+                    };
+                    let mut y = y0;
+                    while y < hi {
+                        let mut x = x0;
+                        while x < wi {
+                            let mut t = 0.0f32;
+                            if h == 1 && pass < 2 {
+                                let (vx, vy) = (x << shift, y << shift);
+                                let cells_x = cell_span(vx - r, vx + r, shift, wi - 1);
+                                let cells_y = cell_span(vy - r, vy + r, shift, hi - 1);
+                                if let (Some((xl, xh)), Some((yl, yh))) = (cells_x, cells_y) {
+                                    for cy in yl..=yh {
+                                        for cx in xl..=xh {
+                                            let k = cy as usize * cw + cx as usize;
+                                            t = t.max(cells.get(k).copied().unwrap_or(0.0));
+                                        }
+                                    }
+                                }
+                            } else {
+                                for &(cx, cy) in g.children(x as u32, y as u32).iter().flatten() {
+                                    if g.in_domain(cx, cy) {
+                                        t = t.max(tb.get(idx(cx, cy)).copied().unwrap_or(0.0));
+                                    }
+                                }
+                            }
+                            if let Some(o) = tb.get_mut(idx(x, y)) {
+                                *o = t;
+                            }
+                            x += 2 * h;
+                        }
+                        y += 2 * h;
+                    }
+                }
+                h *= 2;
+            }
+        }
+        b.local = Some(&*buffer);
+        Ok(b)
+    }
+
+    /// Whether this is [`Self::measure_local`]'s bound (per-vertex base part).
+    ///
+    /// ```
+    /// # use relief_core::{refine::DetailBounds, Composed, Heightfield};
+    /// # let b = Heightfield::new(&[0.0f32; 4], 2, 2).unwrap();
+    /// let c = Composed::new(b, b, 2).unwrap();
+    /// assert!(!DetailBounds::measure(&c).is_local());
+    /// ```
+    #[must_use]
+    pub fn is_local(&self) -> bool {
+        self.local.is_some()
+    }
+
     /// Shared part: shift, detail range, base twist; errors zero.
-    fn scan<B: Sample, D: Sample>(c: &Composed<'_, B, D>) -> Self {
+    fn scan<B: Sample, D: Sample>(c: &Composed<'_, B, D>) -> DetailBounds<'static> {
         let d = c.detail();
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for y in 0..d.height() {
@@ -218,6 +397,10 @@ impl DetailBounds {
             d_hi: hi,
             twist,
             exact: false,
+            tau: [0.0; LEVELS],
+            delta: [0.0; LEVELS],
+            max_abs: 0.0,
+            local: None,
         }
     }
 
@@ -538,6 +721,26 @@ struct DView {
     slack_hi: f64,
 }
 
+/// Per-vertex base part of [`DetailBounds::measure_local`], per virtual level.
+#[derive(Debug, Clone, Copy)]
+struct Local<'a> {
+    /// Nested twist per base vertex, then twist per base cell.
+    buf: &'a [f32],
+    /// Base vertices (offset of the cell twists).
+    n: usize,
+    cells_w: i64,
+    cells_h: i64,
+    /// Chebyshev reach of a vertex's descendants (virtual units).
+    reach: [i64; LEVELS],
+    /// Nested unit-twist error and detail part of the level.
+    tau: [f64; LEVELS],
+    delta: [f64; LEVELS],
+    /// The level's bound with the largest twist (an upper bound of every vertex's).
+    hi: [f64; LEVELS],
+    /// Absolute rounding margin.
+    abs: f64,
+}
+
 /// View-dependent refinement of a [`Composed`] surface through base and detail levels (see the
 /// module documentation). Stateless: every call refines from scratch.
 ///
@@ -568,6 +771,8 @@ pub struct DetailRefiner<'r, 'd, B: Sample, D: Sample> {
     v: DView,
     /// Circle-test error per virtual level.
     ec: [f64; LEVELS],
+    /// [`DetailBounds::measure_local`]: per-vertex base part (see [`Local`]).
+    local: Option<Local<'r>>,
     /// Circle radius per virtual level (world units, rounded up).
     radius: [f64; LEVELS],
     dxv: f64,
@@ -604,7 +809,7 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
     pub fn new(
         hierarchy: &'r Hierarchy<'r>,
         composed: &'r Composed<'d, B, D>,
-        bounds: &DetailBounds,
+        bounds: &DetailBounds<'r>,
         view: &View,
     ) -> Result<Self, Error> {
         let bg = hierarchy.grid();
@@ -685,6 +890,40 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
                 f64::from(bounds.error(l - base_levels).unwrap_or(0.0))
             };
         }
+        let local = match bounds.local {
+            Some(buf) if bounds.shift > 0 => {
+                need(local_bounds_len(bg.width(), bg.height()), buf.len())?;
+                let mut l = Local {
+                    buf,
+                    n: bg.len(),
+                    cells_w: i64::from(bg.width()) - 1,
+                    cells_h: i64::from(bg.height()) - 1,
+                    reach: [0; LEVELS],
+                    tau: [0.0; LEVELS],
+                    delta: [0.0; LEVELS],
+                    hi: [0.0; LEVELS],
+                    abs: f64::from(bounds.max_abs) * MARGIN,
+                };
+                let twist = f64::from(bounds.twist);
+                for lv in 0..g.levels().min(LEVELS as u32) {
+                    let j = lv.saturating_sub(base_levels) as usize;
+                    let k = lv as usize;
+                    if let (Some(r), Some(t), Some(d), Some(hi)) = (
+                        l.reach.get_mut(k),
+                        l.tau.get_mut(k),
+                        l.delta.get_mut(k),
+                        l.hi.get_mut(k),
+                    ) {
+                        *r = reach(u64::from(g.side()), g.levels(), lv);
+                        *t = f64::from(bounds.tau.get(j).copied().unwrap_or(0.0));
+                        *d = f64::from(bounds.delta.get(j).copied().unwrap_or(0.0));
+                        *hi = (twist * *t + *d) * (1.0 + MARGIN) + l.abs;
+                    }
+                }
+                Some(l)
+            }
+            _ => None,
+        };
         Ok(DetailRefiner {
             h: hierarchy,
             c: composed,
@@ -694,6 +933,7 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
             shift,
             v,
             ec,
+            local,
             radius,
             dxv,
             dyv,
@@ -1000,23 +1240,69 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
     /// over the composed height range.
     #[inline(always)]
     fn circle_active(&self, m: (i64, i64), level: u32) -> bool {
-        let e = self.ec.get(level as usize).copied().unwrap_or(0.0);
+        let l = level as usize;
+        let e = match &self.local {
+            None => self.ec.get(l).copied().unwrap_or(0.0),
+            Some(loc) => loc.hi.get(l).copied().unwrap_or(0.0),
+        };
         if e <= 0.0 {
             return false;
         }
         let v = &self.v;
-        let r = self
-            .radius
-            .get(level as usize)
-            .copied()
-            .unwrap_or(f64::INFINITY);
+        let r = self.radius.get(l).copied().unwrap_or(f64::INFINITY);
         let (dx, dy) = (
             v.eye[0] - m.0 as f64 * self.dxv,
             v.eye[1] - m.1 as f64 * self.dyv,
         );
         let dh = (libm::sqrt(dx * dx + dy * dy) - r).max(0.0);
         let dz = (v.z_lo - v.eye[2]).max(v.eye[2] - v.z_hi).max(0.0);
-        e * v.kappa > v.tau * libm::sqrt(dh * dh + dz * dz)
+        let d = libm::sqrt(dh * dh + dz * dz);
+        if e * v.kappa <= v.tau * d {
+            return false;
+        }
+        match &self.local {
+            None => true,
+            // The upper bound passed: the vertex's own bound decides.
+            Some(loc) => self.local_error(loc, m, level) * v.kappa > v.tau * d,
+        }
+    }
+
+    /// [`DetailBounds::measure_local`]'s bound at vertex `m` (virtual coordinates): the nested
+    /// twist of a base vertex, or the largest cell twist within a detail vertex's reach, times
+    /// the level's unit-twist error, plus the detail part and the rounding margin. Monotone in
+    /// each factor, so nested. Loops: at most `(2 reach / K + 2)^2 <= 25` cells.
+    fn local_error(&self, loc: &Local<'_>, m: (i64, i64), level: u32) -> f64 {
+        let l = level as usize;
+        let t = if level < self.base_levels {
+            let i = (m.1 >> self.shift) as usize * self.base_w + (m.0 >> self.shift) as usize;
+            loc.buf.get(i).copied().unwrap_or(f32::INFINITY)
+        } else {
+            let r = loc.reach.get(l).copied().unwrap_or(0);
+            let mut t = 0.0f32;
+            let xs = cell_span(m.0 - r, m.0 + r, self.shift, loc.cells_w);
+            let ys = cell_span(m.1 - r, m.1 + r, self.shift, loc.cells_h);
+            if let (Some((xl, xh)), Some((yl, yh))) = (xs, ys) {
+                for cy in yl..=yh {
+                    for cx in xl..=xh {
+                        let k = loc.n + (cy * loc.cells_w + cx) as usize;
+                        t = t.max(loc.buf.get(k).copied().unwrap_or(f32::INFINITY));
+                    }
+                }
+            }
+            t
+        };
+        let tau = loc.tau.get(l).copied().unwrap_or(0.0);
+        let delta = loc.delta.get(l).copied().unwrap_or(0.0);
+        (f64::from(t) * tau + delta) * (1.0 + MARGIN) + loc.abs
+    }
+
+    /// The detail error the circle test uses at vertex `m` (tests of the bounds).
+    #[cfg(test)]
+    pub(crate) fn circle_error(&self, m: (i64, i64), level: u32) -> f64 {
+        match &self.local {
+            None => self.ec.get(level as usize).copied().unwrap_or(0.0),
+            Some(loc) => self.local_error(loc, m, level),
+        }
     }
 
     /// Tests a base vertex's volume, widened to hold the composed surface, against the active

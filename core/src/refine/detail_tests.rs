@@ -200,6 +200,119 @@ fn refinement_decision_is_nested_across_base_and_detail_levels() {
     let mut ec = vec![0u16; 63];
     let hc = preprocess_compact(c.base(), &mut ec).unwrap();
     check_nesting(&hc, &c, &measured, 7);
+    let mut buf = vec![0.0f32; local_bounds_len(9, 7)];
+    let local = DetailBounds::measure_local(&c, &mut buf).unwrap();
+    check_nesting(&h, &c, &local, 8);
+    check_nesting(&hc, &c, &local, 9);
+}
+
+/// The right-angle corner of triangle `t` split at `m`: the parent of `m` through `t`.
+fn apex(t: &[(i64, i64); 3], m: (i64, i64)) -> (i64, i64) {
+    (0..3)
+        .find(|&k| {
+            let (p, q) = (t[(k + 1) % 3], t[(k + 2) % 3]);
+            p.0 + q.0 == 2 * m.0 && p.1 + q.1 == 2 * m.1
+        })
+        .map(|k| t[k])
+        .unwrap()
+}
+
+#[test]
+fn local_bounds_hold_per_vertex_and_nest() {
+    for (bw, bh, dw, dh, k, seed) in [
+        (9u32, 7u32, 8u32, 8u32, 4u32, 51u64),
+        (6, 9, 6, 10, 8, 52),
+        (5, 5, 16, 16, 16, 53),
+    ] {
+        let bs = noise((bw * bh) as usize, 40.0, seed);
+        let ds = noise((dw * dh) as usize, 3.0, seed + 10);
+        let base =
+            Heightfield::with_scale(&bs, bw, bh, Scale::default().with_spacing(2.0, 3.0)).unwrap();
+        let detail = Heightfield::new(&ds, dw, dh).unwrap();
+        let c = Composed::new(base, detail, k).unwrap();
+        let mut buf = vec![0.0f32; local_bounds_len(bw, bh)];
+        let b = DetailBounds::measure_local(&c, &mut buf).unwrap();
+        let (mut e, mut r) = (vec![0.0; (bw * bh) as usize], vec![0.0; (bw * bh) as usize]);
+        let h = preprocess(&base, &mut e, &mut r).unwrap();
+        let cam = Camera::new(
+            Vec3::new(0.0, 0.0, 9.0),
+            Vec3::new(5.0, 5.0, 0.0),
+            60.0,
+            64,
+            64,
+        )
+        .unwrap();
+        let dr = DetailRefiner::new(&h, &c, &b, &View::new(&cam, 1.0).unwrap()).unwrap();
+        let g = dr.grid();
+        let base_levels = dr.base_levels();
+        for y in 0..c.height() {
+            for x in 0..c.width() {
+                let Some(l) = g.level(x, y) else { continue };
+                let m = (i64::from(x), i64::from(y));
+                let own = dr.circle_error(m, l);
+                for t in g.diamond(x, y).iter().flatten() {
+                    if l >= base_levels {
+                        let truth = triangle_error(&c, &g, *t);
+                        assert!(
+                            own >= truth,
+                            "vertex {m:?} level {l}: bound {own} < {truth}"
+                        );
+                    }
+                    let p = apex(t, m);
+                    if !g.in_domain(p.0, p.1) {
+                        continue;
+                    }
+                    let Some(lp) = g.level(p.0 as u32, p.1 as u32) else {
+                        continue;
+                    };
+                    let pe = dr.circle_error(p, lp);
+                    assert!(pe >= own, "parent {p:?} ({pe}) < child {m:?} ({own})");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn local_bounds_ignore_a_steep_cell_far_away() {
+    // Flat base but one twisted cell at the origin: the global bound carries its twist
+    // everywhere, the local one only near it.
+    let mut bs = vec![0.0f32; 17 * 17];
+    bs[0] = 100.0;
+    let ds = noise(8 * 8, 0.2, 61);
+    let base = Heightfield::new(&bs, 17, 17).unwrap();
+    let detail = Heightfield::new(&ds, 8, 8).unwrap();
+    let c = Composed::new(base, detail, 8).unwrap();
+    let global = DetailBounds::measure(&c);
+    let mut buf = vec![0.0f32; local_bounds_len(17, 17)];
+    let local = DetailBounds::measure_local(&c, &mut buf).unwrap();
+    let (mut e, mut r) = (vec![0.0; 289], vec![0.0; 289]);
+    let h = preprocess(&base, &mut e, &mut r).unwrap();
+    let cam = Camera::new(
+        Vec3::new(0.0, 0.0, 9.0),
+        Vec3::new(5.0, 5.0, 0.0),
+        60.0,
+        64,
+        64,
+    )
+    .unwrap();
+    let v = View::new(&cam, 1.0).unwrap();
+    let dg = DetailRefiner::new(&h, &c, &global, &v).unwrap();
+    let dl = DetailRefiner::new(&h, &c, &local, &v).unwrap();
+    let bl = dl.base_levels();
+    // A cell centre far from the origin (detail level 0) and one next to the steep cell.
+    let far = dl.circle_error((100, 100), bl);
+    let near = dl.circle_error((4, 4), bl);
+    let g0 = dg.circle_error((100, 100), bl);
+    assert!(g0 >= 25.0, "global level-0 bound carries the twist: {g0}");
+    assert!(
+        far < 1.0,
+        "far from the steep cell the local bound is the detail part: {far}"
+    );
+    assert!(
+        near >= 25.0,
+        "the steep cell's own centre keeps its twist: {near}"
+    );
 }
 
 #[test]

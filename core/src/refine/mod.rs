@@ -63,7 +63,8 @@ mod update;
 mod update_tests;
 
 pub use detail::{
-    detail_scratch_len, DetailBounds, DetailCounts, DetailRefiner, MEASURE_PERIOD_LIMIT,
+    detail_scratch_len, local_bounds_len, DetailBounds, DetailCounts, DetailRefiner,
+    MEASURE_PERIOD_LIMIT,
 };
 pub use grid::RefineGrid;
 pub use layout::{pack_records, records_len, RecordLayout, VertexRecord};
