@@ -1,6 +1,7 @@
 //! SOAR refinement benchmarks on the bundled Puget Sound DEM (1025 x 1025, 160 m, 0.1 m units):
 //! preprocessing (both layouts), view-independent extraction (triangles/s), view-dependent
-//! refinement with frustum culling (triangles/s), the in/out-edge strip, and an
+//! refinement with frustum culling (triangles/s; `f32` arrays, compact, and the 8-byte records
+//! in both layouts), the in/out-edge strip, and an
 //! error-threshold vs triangles vs milliseconds table for both modes (printed to stderr).
 //!
 //! `cargo bench -p relief-benches --bench refine`
@@ -8,8 +9,8 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    hierarchy_len, preprocess, preprocess_compact, scratch_len, strip_bound, Criterion as Crit,
-    Refiner, View,
+    hierarchy_len, pack_records, preprocess, preprocess_compact, records_len, scratch_len,
+    strip_bound, Criterion as Crit, RecordLayout, Refiner, VertexRecord, View,
 };
 use relief_core::{Camera, Heightfield};
 use std::hint::black_box;
@@ -74,6 +75,10 @@ fn benches(c: &mut Criterion) {
     let full = preprocess(&hf, &mut ef, &mut rf).unwrap();
     let mut ec = vec![0u16; n];
     let compact = preprocess_compact(&hf, &mut ec).unwrap();
+    let mut rl = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Linear)];
+    let rec_lin = pack_records(&full, &hf, RecordLayout::Linear, &mut rl).unwrap();
+    let mut ri = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Interleaved)];
+    let rec_il = pack_records(&full, &hf, RecordLayout::Interleaved, &mut ri).unwrap();
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let mut verts = vec![[0.0f32; 3]; n];
     let mut tris = vec![[0u32; 3]; relief_core::refine::triangle_bound(w, h)];
@@ -94,7 +99,12 @@ fn benches(c: &mut Criterion) {
 
     let mut g = c.benchmark_group("refine_vd_culling_1025");
     for tau in [0.5f32, 1.0, 4.0] {
-        for (name, hier) in [("full", &full), ("compact", &compact)] {
+        for (name, hier) in [
+            ("full", &full),
+            ("compact", &compact),
+            ("records-linear", &rec_lin),
+            ("records-interleaved", &rec_il),
+        ] {
             let v = View::new(&camera(0), tau).unwrap();
             let r = Refiner::new(hier, &hf, Crit::View(v)).unwrap();
             let t = r.count(&mut scratch).unwrap().triangles;
@@ -147,7 +157,11 @@ fn benches(c: &mut Criterion) {
         }
     }
     for tau in [0.25f32, 0.5, 1.0, 2.0, 4.0, 8.0] {
-        for (name, hier) in [("full", &full), ("compact", &compact)] {
+        for (name, hier) in [
+            ("full", &full),
+            ("compact", &compact),
+            ("records-interleaved", &rec_il),
+        ] {
             let v = View::new(&camera(0), tau).unwrap();
             let r = Refiner::new(hier, &hf, Crit::View(v)).unwrap();
             let cnt = r.count(&mut scratch).unwrap();

@@ -35,6 +35,6 @@ mod write;
 
 pub use dem::{Dem, Stats};
 pub use error::IoError;
-pub use mmap::MappedGrid;
+pub use mmap::{HugeBuffer, MappedGrid};
 pub use read::{decode_dem, read_dem, Fill, Format, ReadOptions};
 pub use write::{write_atomic, write_obj, write_png16, write_png_rgb8, write_raw_f32};
