@@ -4,6 +4,8 @@
 # camera and grazing views. One JSON line per DEM, view and method.
 #
 # usage (from the repository root): bench-peers/embree_rays.sh RELIEF_BIN [ROUNDS] [WxH]
+# ONLY="puget fuji" limits the run to those DEMs (names in the list at the end); METHODS (default
+# "maxmip maxmip-scalar run-dda") to those methods.
 # needs: python3 -m venv /tmp/venv-embree && /tmp/venv-embree/bin/pip install
 #        embreex==4.4.0.post1 numpy pillow    (or set PY to a python that has them)
 set -eu
@@ -16,12 +18,13 @@ TMP=$(mktemp -d)
 trap 'rm -rf "$TMP"' EXIT
 # name file format dx dy z-multiplier (spacings from ../shared/data/README.md)
 while read -r name file fmt dx dy zmul; do
+    case " ${ONLY:-$name} " in *" $name "*) ;; *) continue ;; esac
     dims=$("$PY" bench-peers/dem_to_raw.py "$file" "$fmt" "$TMP/$name.raw")
     w=${dims% *}
     h=${dims#* }
     "$PY" -c "import numpy as n,sys; a=n.fromfile(sys.argv[1],'<f4')*n.float32($zmul); a.astype('<f4').tofile(sys.argv[1])" "$TMP/$name.raw"
     for view in camera grazing; do
-        for method in maxmip maxmip-scalar run-dda; do
+        for method in ${METHODS:-maxmip maxmip-scalar run-dda}; do
             "$PY" bench-peers/embree_trace.py "$RELIEF" "$TMP/$name.raw" "$w" "$h" "$dx" "$dy" \
                 "$view" "$SIZE" "$method" "$ROUNDS"
             echo

@@ -475,6 +475,7 @@ fn mip_table() {
             .iter()
             .map(|r| tracer.trace_maxmip(r, &mip).unwrap())
             .collect();
+
         let mut out = vec![Trace::default(); rays.len()];
         tracer.trace_maxmip_packet(&rays, &mip, &mut out).unwrap();
         assert_eq!(out, scalar, "packet path differs from ray by ray");

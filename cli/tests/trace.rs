@@ -156,3 +156,71 @@ fn bad_input_gives_one_line_and_exit_2() {
     );
     assert!(!Path::new(&out).exists());
 }
+
+#[test]
+fn maxmip_packet_and_ray_by_ray_write_identical_images() {
+    let dir = tempfile::tempdir().unwrap();
+    for surface in ["triangles", "bilinear", "plane", "nearest"] {
+        let (p, vp) = trace(dir.path(), "maxmip", surface, &[]);
+        let packet = vp["packet"].as_str().unwrap().to_string();
+        assert!(packet == "avx512" || packet == "portable", "{packet}");
+        let (s, vs) = trace(dir.path(), "maxmip", surface, &["--no-packet"]);
+        assert_eq!(vs["packet"], "off");
+        // Bit for bit, with the same work counters.
+        let bits = |d: &[f32]| d.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&p), bits(&s), "{surface} ({packet})");
+        assert_eq!(vp["cells_visited"], vs["cells_visited"]);
+        assert_eq!(vp["steps"], vs["steps"]);
+    }
+    let (_, v) = trace(dir.path(), "cell-dda", "triangles", &[]);
+    assert_eq!(v["packet"], "off");
+}
+
+#[test]
+fn march_view_dependent_samples_are_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, fixed) = trace(dir.path(), "march", "triangles", &["--samples", "64"]);
+    assert_eq!(fixed["samples_mode"], "fixed");
+    assert_eq!(fixed["march_samples_mean"], 64.0);
+    assert!(fixed.get("min_samples").is_none());
+    let (d, v) = trace(
+        dir.path(),
+        "march",
+        "triangles",
+        &["--samples", "64", "--view-dependent-samples", "8"],
+    );
+    assert!(d.iter().all(|x| !x.is_nan()));
+    assert_eq!(v["samples_mode"], "view-dependent");
+    assert_eq!(v["min_samples"], 8);
+    // lerp(8, 64, 1 - |dir.z|) per ray: strictly between the two for this oblique camera.
+    let mean = v["march_samples_mean"].as_f64().unwrap();
+    assert!(mean > 8.0 && mean < 64.0, "{mean}");
+
+    let dem = bundled();
+    let out = dir.path().join("bad.f32").display().to_string();
+    let bad = |extra: &[&str]| {
+        let mut a = vec![
+            "trace", "--dem", &dem, "--eye", "1,2,3", "--target", "5,5,0", "--size", "8x8",
+            "--out", &out,
+        ];
+        a.extend_from_slice(extra);
+        relief(&a)
+    };
+    assert_one_line_error(
+        &bad(&[
+            "--method",
+            "march",
+            "--samples",
+            "16",
+            "--view-dependent-samples",
+            "32",
+        ]),
+        "view-dependent",
+    );
+    assert_one_line_error(
+        &bad(&["--method", "march", "--view-dependent-samples", "0"]),
+        "view-dependent",
+    );
+    assert_one_line_error(&bad(&["--view-dependent-samples", "8"]), "march");
+    assert!(!Path::new(&out).exists());
+}

@@ -104,8 +104,10 @@ struct Stats {
     steps: u64,
     max_step_cells: f64,
     max_bracket: f64,
-    /// March samples taken over all rays (linear search, as chosen per ray).
+    /// March samples chosen over all rays (linear search), and the rays marched (those that
+    /// cross the terrain's bounding box; the others take no samples).
     march_samples: u64,
+    march_rays: u64,
 }
 
 impl Stats {
@@ -127,6 +129,7 @@ impl Stats {
         self.max_step_cells = self.max_step_cells.max(o.max_step_cells);
         self.max_bracket = self.max_bracket.max(o.max_bracket);
         self.march_samples += o.march_samples;
+        self.march_rays += o.march_rays;
         self
     }
 }
@@ -263,6 +266,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
                     let m = tracer.trace_march(ray, &opts).map_err(|e| e.to_string())?;
                     st.max_step_cells = st.max_step_cells.max(m.step_cells);
                     st.march_samples += m.samples as u64;
+                    st.march_rays += u64::from(m.samples > 0);
                     if m.trace.hit.is_some() {
                         st.max_bracket = st.max_bracket.max(m.bracket);
                     }
@@ -344,8 +348,9 @@ pub fn run(a: &TraceArgs) -> CliResult {
             if opts.view_dependent {
                 v["min_samples"] = serde_json::json!(opts.min_samples);
             }
+            // Mean samples per marched ray (rays that miss the bounding box take none).
             v["march_samples_mean"] =
-                serde_json::json!(stats.march_samples as f64 / (rays as f64).max(1.0));
+                serde_json::json!(stats.march_samples as f64 / (stats.march_rays as f64).max(1.0));
             v["march_step_cells_max"] = serde_json::json!(stats.max_step_cells);
             v["march_bracket_max"] = serde_json::json!(stats.max_bracket);
         }
