@@ -191,6 +191,12 @@ pub struct Tin {
 /// Worst sample of a triangle: `(error, x, y)`; error 0 and the first corner when the triangle
 /// covers no sample but its corners.
 fn scan_triangle(heights: &[f32], width: usize, c: [(i64, i64); 3]) -> (f64, u32, u32) {
+    // A lattice triangle of area 1/2 holds no sample but its corners (Pick's theorem: 2A =
+    // 2 interior + boundary - 2, and the corners alone give 2A = 1): nothing to read. Most
+    // triangles near full resolution are such, and their corner heights are cache misses.
+    if crate::scan::orient(c[0], c[1], c[2]).abs() == 1 {
+        return (0.0, c[0].0 as u32, c[0].1 as u32);
+    }
     let z = |x: i64, y: i64| {
         f64::from(
             heights
@@ -487,5 +493,37 @@ impl Tin {
     /// ```
     pub fn measure<T: Terrain + ?Sized>(&self, terrain: &T) -> Result<MeshError, Error> {
         crate::mesh_error(terrain, &self.vertices, &self.triangles)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::scan::{for_each_span, orient};
+
+    /// The fast path of `scan_triangle`: a lattice triangle of doubled area 1 covers no sample
+    /// but its corners (checked by rasterising every such triangle with corners in a 5 x 5 box).
+    #[test]
+    fn unit_area_triangles_cover_only_their_corners() {
+        let pts: Vec<(i64, i64)> = (0..25).map(|i| (i % 5, i / 5)).collect();
+        let mut seen = 0;
+        for &a in &pts {
+            for &b in &pts {
+                for &c in &pts {
+                    if orient(a, b, c).abs() != 1 {
+                        continue;
+                    }
+                    let mut covered = Vec::new();
+                    for_each_span(a, b, c, |y, lo, hi| {
+                        covered.extend((lo..=hi).map(|x| (x, y)))
+                    });
+                    covered.sort_unstable();
+                    let mut corners = vec![a, b, c];
+                    corners.sort_unstable();
+                    assert_eq!(covered, corners, "{a:?} {b:?} {c:?}");
+                    seen += 1;
+                }
+            }
+        }
+        assert!(seen > 1000, "{seen}");
     }
 }
