@@ -207,6 +207,13 @@ fn detail_starts_inside_the_view_without_cracks() {
             let full =
                 refine(&DetailRefiner::new(&h, &c, &bounds, &view.with_culling(false)).unwrap());
             assert!(m.n.triangles < full.n.triangles);
+            // Detail levels are culled too (their cylinders), not only base levels.
+            assert!(
+                m.n.detail_triangles() < full.n.detail_triangles(),
+                "{:?} vs {:?}",
+                m.n,
+                full.n
+            );
         }
     }
 }

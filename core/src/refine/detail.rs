@@ -11,8 +11,11 @@
 //! - **Detail levels** (`2 d` more) use seed 004's level-only bounding circles
 //!   `r_i = l_0 (1/sqrt 2)^i / (1 - 1/sqrt 2)`, extended over the composed surface's height range,
 //!   and one error per detail level ([`DetailBounds`]: a constant, or a bound measured once from
-//!   the base's bilinear twist and the detail map, nested by a suffix maximum). They are never
-//!   frustum-culled (lazy culling: circles cannot cull, section 6.3).
+//!   the base's bilinear twist and the detail map, nested by a suffix maximum). Seed 004's flat
+//!   circles cannot cull (section 6.3); here each circle is extended over the composed height
+//!   range into a cylinder, which can: detail vertices are tested against every frustum plane
+//!   (so the decision depends on the vertex alone), and lazy culling (chapter 5.2) skips the test
+//!   on the finest [`View::with_lazy_levels`] levels of the virtual grid.
 //! - A base vertex is refined when its own (sphere) projection **or** the circle projection of
 //!   the largest detail error exceeds the threshold: the maximum of the two projections, which
 //!   keeps the detail mesh nested with the base mesh, so there are no cracks where detail starts.
@@ -788,8 +791,9 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
     /// A detail refiner for `composed`, whose base `hierarchy` was preprocessed from
     /// ([`Error::LengthMismatch`] if the sizes differ) with `bounds` from the same composition
     /// ([`Error::InvalidFactor`] if its factor differs). The view's culling, near/far planes and
-    /// lazy levels apply to the base levels as in [`Refiner`](super::Refiner); detail levels are
-    /// never culled. [`Error::SizeOverflow`] if the composed grid's enclosing square exceeds
+    /// lazy levels apply as in [`Refiner`](super::Refiner), counted on the virtual grid's levels
+    /// (base volumes widened by the detail range and twist; detail levels by their cylinders).
+    /// [`Error::SizeOverflow`] if the composed grid's enclosing square exceeds
     /// `2^30` cells.
     ///
     /// ```
@@ -862,7 +866,7 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
             kappa_over_tau: kappa / tau,
             planes,
             mask,
-            lazy_from: base_levels.saturating_sub(lazy_levels),
+            lazy_from: g.levels().saturating_sub(lazy_levels),
             z_lo: f64::from(bz_lo) + d_lo,
             z_hi: f64::from(bz_hi) + d_hi,
             bz_lo: f64::from(bz_lo),
@@ -1183,6 +1187,9 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
     #[inline(always)]
     fn decide(&self, m: (i64, i64), planes: u8, level: u32) -> Decision {
         if level >= self.base_levels {
+            if self.v.mask != 0 && level < self.v.lazy_from && self.cylinder_outside(m, level) {
+                return Decision::Cull;
+            }
             return if self.circle_active(m, level) {
                 Decision::Split(0)
             } else {
@@ -1303,6 +1310,32 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
             None => self.ec.get(level as usize).copied().unwrap_or(0.0),
             Some(loc) => self.local_error(loc, m, level),
         }
+    }
+
+    /// Whether a detail vertex's cylinder (its level circle over the composed height range, which
+    /// holds its triangles and all its descendants) lies outside one of the frustum planes.
+    /// Every plane is tested, so the answer does not depend on the path that reached the vertex.
+    #[inline(always)]
+    fn cylinder_outside(&self, m: (i64, i64), level: u32) -> bool {
+        let v = &self.v;
+        let r = self
+            .radius
+            .get(level as usize)
+            .copied()
+            .unwrap_or(f64::INFINITY);
+        let (px, py) = (m.0 as f64 * self.dxv, m.1 as f64 * self.dyv);
+        for (k, p) in v.planes.iter().enumerate() {
+            if v.mask & (1 << k) == 0 {
+                continue;
+            }
+            let hyp = libm::sqrt(p[0] * p[0] + p[1] * p[1]);
+            let c = p[0] * px + p[1] * py + p[3];
+            let zmax = (p[2] * v.z_lo).max(p[2] * v.z_hi);
+            if c + r * hyp + zmax < 0.0 {
+                return true;
+            }
+        }
+        false
     }
 
     /// Tests a base vertex's volume, widened to hold the composed surface, against the active
