@@ -12,6 +12,9 @@ use relief_tests::mesh_check::{check_mesh, CheckOptions};
 use std::collections::HashMap;
 use std::path::Path;
 
+/// Errors and radii each tile exported, per side.
+type Exported = HashMap<(usize, usize, Side), (Vec<f32>, Vec<f32>)>;
+
 struct Tile {
     x0: u32,
     y0: u32,
@@ -82,7 +85,7 @@ fn neighbour(rows: usize, cols: usize, r: usize, c: usize, side: Side) -> Option
 fn exchange(tiles: &mut [Vec<Tile>], scale: Scale) -> usize {
     let (rows, cols) = (tiles.len(), tiles[0].len());
     for round in 1..=32 {
-        let mut out: HashMap<(usize, usize, Side), (Vec<f32>, Vec<f32>)> = HashMap::new();
+        let mut out: Exported = HashMap::new();
         for (r, row) in tiles.iter().enumerate() {
             for (c, t) in row.iter().enumerate() {
                 for side in Side::ALL {

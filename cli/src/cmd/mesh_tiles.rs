@@ -16,6 +16,11 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// Errors and radii one tile exported for one side.
+type Exported = HashMap<(usize, usize, Side), (Vec<f32>, Vec<f32>)>;
+/// One tile's OBJ: path, vertices, triangles.
+type TileObj = (PathBuf, Vec<[f32; 3]>, Vec<[u32; 3]>);
+
 /// One tile: its place in the map, its samples and its preprocessed data.
 struct Tile {
     col: usize,
@@ -63,7 +68,7 @@ fn neighbour(rows: usize, cols: usize, r: usize, c: usize, side: Side) -> Option
 fn exchange(tiles: &mut [Tile], cols: usize, scale: Scale) -> CliResult<usize> {
     let rows = tiles.len() / cols.max(1);
     for round in 1..=64 {
-        let mut out: HashMap<(usize, usize, Side), (Vec<f32>, Vec<f32>)> = HashMap::new();
+        let mut out: Exported = HashMap::new();
         for t in tiles.iter() {
             for side in Side::ALL {
                 if neighbour(rows, cols, t.row, t.col, side).is_some() {
@@ -212,7 +217,7 @@ pub fn run(dem: &Dem, o: &TileOptions<'_>) -> CliResult {
     let mut at: HashMap<(u32, u32), u32> = HashMap::new();
     let (mut uv, mut ut) = (Vec::new(), Vec::new());
     let mut per_tile = Vec::with_capacity(tiles.len());
-    let mut files: Vec<(PathBuf, Vec<[f32; 3]>, Vec<[u32; 3]>)> = Vec::new();
+    let mut files: Vec<TileObj> = Vec::new();
     for t in &mut tiles {
         let hf = Heightfield::with_scale(&t.samples, t.w, t.h, scale)?;
         let hier = renest(

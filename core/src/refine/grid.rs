@@ -203,6 +203,8 @@ impl RefineGrid {
 
     /// The (up to two) triangles of the diamond of vertex `(x, y)`, split by it; `None` entries
     /// for triangles outside the square.
+    // The reference for preprocess::shape (tested equal); preprocessing itself uses shape.
+    #[allow(dead_code)]
     pub(crate) fn diamond(&self, x: u32, y: u32) -> [Option<[(i64, i64); 3]>; 2] {
         let Some((kind, h)) = self.kind(x, y) else {
             return [None, None];

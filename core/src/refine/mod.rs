@@ -55,9 +55,9 @@ mod raster;
 mod scan;
 mod select;
 mod strip;
-mod tile;
 #[cfg(test)]
 mod tests;
+mod tile;
 mod update;
 #[cfg(test)]
 mod update_tests;

@@ -192,15 +192,91 @@ fn triangle_error_pruned(
     max_deviation(t, pr.layout, pr.buf, &spans, &plane, floor)
 }
 
-/// Computes and stores the nested error (and radius) of vertex `(x, y)` from its diamond and its
-/// children's stored values (which must be final).
+/// The diamond triangles and children of the vertex `(x, y)` of half-size `h` in pass `pass`
+/// (0: horizontal edges, 1: vertical edges, 2: centres), the same sets as
+/// [`RefineGrid::diamond`] and [`RefineGrid::children`] (tested), by shifts instead of the
+/// integer divisions those need for an arbitrary point.
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+pub(crate) fn shape(
+    g: &RefineGrid,
+    x: i64,
+    y: i64,
+    h: i64,
+    pass: usize,
+) -> ([Option<[(i64, i64); 3]>; 2], [Option<(i64, i64)>; 4]) {
+    let n = g.side() as i64;
+    let inside = |t: [(i64, i64); 3]| {
+        t.iter()
+            .all(|&(a, b)| a >= 0 && b >= 0 && a <= n && b <= n)
+            .then_some(t)
+    };
+    let ok = |p: (i64, i64)| (p.0 >= 0 && p.1 >= 0 && p.0 <= n && p.1 <= n).then_some(p);
+    let edge_kids = |x: i64, y: i64| {
+        if h >= 2 {
+            let q = h / 2;
+            [
+                ok((x - q, y - q)),
+                ok((x + q, y - q)),
+                ok((x - q, y + q)),
+                ok((x + q, y + q)),
+            ]
+        } else {
+            [None; 4]
+        }
+    };
+    match pass {
+        0 => {
+            let (e0, e1) = ((x - h, y), (x + h, y));
+            (
+                [inside([e0, e1, (x, y + h)]), inside([e1, e0, (x, y - h)])],
+                edge_kids(x, y),
+            )
+        }
+        1 => {
+            let (e0, e1) = ((x, y - h), (x, y + h));
+            (
+                [inside([e0, e1, (x - h, y)]), inside([e1, e0, (x + h, y)])],
+                edge_kids(x, y),
+            )
+        }
+        _ => {
+            let (c00, c10, c01, c11) = (
+                (x - h, y - h),
+                (x + h, y - h),
+                (x - h, y + h),
+                (x + h, y + h),
+            );
+            // main_diagonal(x - h, y - h, 2h) with shifts (x - h and y - h are multiples of 2h).
+            let k = (2 * h).trailing_zeros();
+            let main = (((x - h) >> k) + ((y - h) >> k)) & 1 == 0;
+            let d = if main {
+                [Some([c00, c10, c11]), Some([c00, c11, c01])]
+            } else {
+                [Some([c00, c10, c01]), Some([c10, c11, c01])]
+            };
+            (
+                d,
+                [
+                    ok((x - h, y)),
+                    ok((x + h, y)),
+                    ok((x, y - h)),
+                    ok((x, y + h)),
+                ],
+            )
+        }
+    }
+}
+
+/// Computes and stores the nested error (and radius) of vertex `(x, y)` (half-size `h`, pass
+/// `pass` as in [`shape`]) from its diamond and its children's stored values (which must be
+/// final).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn vertex<T: Terrain, E: ErrorSink + ?Sized>(
     t: &T,
     g: &RefineGrid,
-    x: i64,
-    y: i64,
+    (x, y, h, pass): (i64, i64, i64, usize),
     errors: &mut E,
     radii: Option<&mut [f32]>,
     contain_corners: bool,
@@ -208,8 +284,7 @@ pub(crate) fn vertex<T: Terrain, E: ErrorSink + ?Sized>(
 ) {
     let w = g.width() as usize;
     let idx = |x: i64, y: i64| y as usize * w + x as usize;
-    let (xu, yu) = (x as u32, y as u32);
-    let kids = g.children(xu, yu);
+    let (diamond, kids) = shape(g, x, y, h, pass);
     let mut c = 0.0f32;
     for &(cx, cy) in kids.iter().flatten() {
         if g.in_domain(cx, cy) {
@@ -217,7 +292,6 @@ pub(crate) fn vertex<T: Terrain, E: ErrorSink + ?Sized>(
         }
     }
     let mut e = 0.0f64;
-    let diamond = g.diamond(xu, yu);
     for tri in diamond.iter().flatten() {
         e = e.max(triangle_error_pruned(t, g, *tri, pruning, e.max(c as f64)));
     }
@@ -284,6 +358,13 @@ pub(crate) fn pass_range<T: Terrain, E: ErrorSink + ?Sized>(
         }
     };
     let (xe, ye) = (x_hi.min(wi - 1), y_hi.min(hi - 1));
+    let pass = if y0 == 0 {
+        0
+    } else if x0 == 0 {
+        1
+    } else {
+        2
+    };
     let mut y = first(y0, y_lo);
     while y <= ye {
         let mut x = first(x0, x_lo);
@@ -291,8 +372,7 @@ pub(crate) fn pass_range<T: Terrain, E: ErrorSink + ?Sized>(
             vertex(
                 t,
                 g,
-                x,
-                y,
+                (x, y, h, pass),
                 errors,
                 radii.as_deref_mut(),
                 contain_corners,

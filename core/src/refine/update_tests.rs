@@ -203,3 +203,56 @@ fn small_triangle_fast_paths_equal_rasterising() {
     }
     assert!(checked[0] > 100 && checked[1] > 50, "{checked:?}");
 }
+
+#[test]
+fn pass_shapes_equal_the_grid_diamonds_and_children() {
+    for (w, h) in [(2u32, 2u32), (5, 5), (17, 9), (30, 19), (65, 65), (100, 37)] {
+        let g = RefineGrid::new(w, h).unwrap();
+        let n = g.side() as i64;
+        let mut hh = 1i64;
+        let mut seen = 0;
+        while hh < n {
+            for (pass, (x0, y0, _)) in preprocess::passes(hh).into_iter().enumerate() {
+                let (mut y, mut count) = (y0, 0);
+                while y < h as i64 {
+                    let mut x = x0;
+                    while x < w as i64 {
+                        let (d, k) = preprocess::shape(&g, x, y, hh, pass);
+                        let key = |t: &[(i64, i64); 3]| {
+                            let mut v = t.to_vec();
+                            v.sort();
+                            v
+                        };
+                        let mut a: Vec<_> = d.iter().flatten().map(key).collect();
+                        let mut b: Vec<_> = g
+                            .diamond(x as u32, y as u32)
+                            .iter()
+                            .flatten()
+                            .map(key)
+                            .collect();
+                        a.sort();
+                        b.sort();
+                        assert_eq!(a, b, "{w}x{h} ({x},{y}) h={hh}");
+                        let mut ka: Vec<_> = k.iter().flatten().collect();
+                        let gk = g.children(x as u32, y as u32);
+                        let mut kb: Vec<_> = gk.iter().flatten().collect();
+                        ka.sort();
+                        kb.sort();
+                        assert_eq!(ka, kb, "{w}x{h} ({x},{y}) h={hh}");
+                        count += 1;
+                        x += 2 * hh;
+                    }
+                    y += 2 * hh;
+                }
+                seen += count;
+            }
+            hh *= 2;
+        }
+        // Every grid point but the square's corners is one pass's vertex exactly once.
+        let corners = [(0, 0), (n, 0), (0, n), (n, n)]
+            .iter()
+            .filter(|&&(x, y)| x < w as i64 && y < h as i64)
+            .count();
+        assert_eq!(seen + corners, g.len(), "{w}x{h}");
+    }
+}
