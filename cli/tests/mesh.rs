@@ -49,7 +49,7 @@ fn view_independent_mesh_writes_obj_and_stays_within_e() {
         let dem = write_dem(dir.path(), w, h);
         let out = dir.path().join("m.obj");
         let (ws, hs) = (w.to_string(), h.to_string());
-        for layout in ["full", "compact"] {
+        for layout in ["full", "compact", "records", "records-linear"] {
             let o = relief(&[
                 "mesh",
                 "--dem",
