@@ -122,20 +122,25 @@ fn benches(crit: &mut Criterion) {
             .triangles;
     }
     let mut counts = Vec::new();
-    let mut max_t = 0usize;
+    let (mut max_t, mut max_v) = (0usize, 0usize);
     for b in [&constant, &measured, &local] {
         let mut total = 0usize;
         for cam in &cams {
             let dr = DetailRefiner::new(&hier, &c, b, &View::new(cam, TAU).unwrap()).unwrap();
             let t = dr.triangle_count();
+            let n = dr
+                .count(&mut vec![0u64; detail_scratch_len(3 * t)])
+                .unwrap();
             max_t = max_t.max(t);
+            max_v = max_v.max(n.vertices);
             total += t;
         }
         counts.push(total);
     }
+    // Buffers sized for the largest frame (the table is cleared every frame: O(its length)).
     let mut dbuf = (
-        vec![0u64; detail_scratch_len(3 * max_t)],
-        vec![[0.0f32; 3]; 3 * max_t],
+        vec![0u64; detail_scratch_len(max_v)],
+        vec![[0.0f32; 3]; max_v],
         vec![[0u32; 3]; max_t],
     );
     eprintln!(

@@ -711,6 +711,8 @@ struct DView {
     tau: f64,
     kappa_over_tau: f64,
     planes: [[f64; 4]; 6],
+    /// Per plane: horizontal norm, and the lowest and highest `n.z z` over the composed range.
+    cyl: [[f64; 3]; 6],
     mask: u8,
     lazy_from: u32,
     /// Composed local height range (base range + detail range).
@@ -859,12 +861,19 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
         let tau = f64::from(view.pixel_error());
         let kappa = f64::from(camera.kappa());
         let e = camera.eye;
+        let (cz_lo, cz_hi) = (f64::from(bz_lo) + d_lo, f64::from(bz_hi) + d_hi);
+        let mut cyl = [[0.0f64; 3]; 6];
+        for (q, p) in cyl.iter_mut().zip(planes.iter()) {
+            let (a, b) = (p[2] * cz_lo, p[2] * cz_hi);
+            *q = [libm::sqrt(p[0] * p[0] + p[1] * p[1]), a.min(b), a.max(b)];
+        }
         let v = DView {
             eye: [f64::from(e.x), f64::from(e.y), f64::from(e.z) - off],
             kappa,
             tau,
             kappa_over_tau: kappa / tau,
             planes,
+            cyl,
             mask,
             lazy_from: g.levels().saturating_sub(lazy_levels),
             z_lo: f64::from(bz_lo) + d_lo,
@@ -1187,11 +1196,19 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
     #[inline(always)]
     fn decide(&self, m: (i64, i64), planes: u8, level: u32) -> Decision {
         if level >= self.base_levels {
-            if self.v.mask != 0 && level < self.v.lazy_from && self.cylinder_outside(m, level) {
-                return Decision::Cull;
+            let mut planes = if level == self.base_levels {
+                self.v.mask
+            } else {
+                planes
+            };
+            if planes != 0 && level < self.v.lazy_from {
+                match self.cull_cylinder(m, level, planes) {
+                    Some(p) => planes = p,
+                    None => return Decision::Cull,
+                }
             }
             return if self.circle_active(m, level) {
-                Decision::Split(0)
+                Decision::Split(planes)
             } else {
                 Decision::Keep
             };
@@ -1269,8 +1286,12 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
         }
         match &self.local {
             None => true,
-            // The upper bound passed: the vertex's own bound decides.
-            Some(loc) => self.local_error(loc, m, level) * v.kappa > v.tau * d,
+            // The upper bound passed. The bound without any twist is a lower bound: if it passes
+            // too, no cell needs reading; otherwise the vertex's own bound decides.
+            Some(loc) => {
+                let lo = loc.delta.get(l).copied().unwrap_or(0.0) * (1.0 + MARGIN) + loc.abs;
+                lo * v.kappa > v.tau * d || self.local_error(loc, m, level) * v.kappa > v.tau * d
+            }
         }
     }
 
@@ -1312,11 +1333,14 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
         }
     }
 
-    /// Whether a detail vertex's cylinder (its level circle over the composed height range, which
-    /// holds its triangles and all its descendants) lies outside one of the frustum planes.
-    /// Every plane is tested, so the answer does not depend on the path that reached the vertex.
+    /// Tests a detail vertex's cylinder (its level circle over the composed height range, which
+    /// holds its triangles and all its descendants) against the planes in `planes`: `None` if
+    /// outside one, else the planes it still crosses. Cylinders are nested, so a plane a parent's
+    /// cylinder lies inside of can never put a child outside: the answer does not depend on the
+    /// path (the first detail level starts from every plane, base volumes not being nested with
+    /// cylinders).
     #[inline(always)]
-    fn cylinder_outside(&self, m: (i64, i64), level: u32) -> bool {
+    fn cull_cylinder(&self, m: (i64, i64), level: u32, planes: u8) -> Option<u8> {
         let v = &self.v;
         let r = self
             .radius
@@ -1324,18 +1348,21 @@ impl<'r, 'd, B: Sample, D: Sample> DetailRefiner<'r, 'd, B, D> {
             .copied()
             .unwrap_or(f64::INFINITY);
         let (px, py) = (m.0 as f64 * self.dxv, m.1 as f64 * self.dyv);
-        for (k, p) in v.planes.iter().enumerate() {
-            if v.mask & (1 << k) == 0 {
+        let mut out = planes;
+        for (k, (p, q)) in v.planes.iter().zip(v.cyl.iter()).enumerate() {
+            if planes & (1 << k) == 0 {
                 continue;
             }
-            let hyp = libm::sqrt(p[0] * p[0] + p[1] * p[1]);
             let c = p[0] * px + p[1] * py + p[3];
-            let zmax = (p[2] * v.z_lo).max(p[2] * v.z_hi);
-            if c + r * hyp + zmax < 0.0 {
-                return true;
+            // q = (horizontal norm, lowest and highest z term over the height range).
+            if c + r * q[0] + q[2] < 0.0 {
+                return None;
+            }
+            if c - r * q[0] + q[1] > 0.0 {
+                out &= !(1 << k);
             }
         }
-        false
+        Some(out)
     }
 
     /// Tests a base vertex's volume, widened to hold the composed surface, against the active
