@@ -15,8 +15,9 @@
 //! ([`Error::Unsupported`] otherwise). The depth written is where the pixel's ray crosses the
 //! interpolated row's vertical plane. Tests compare the silhouette map with
 //! [`relief_core::silhouette::silhouette_map`] (same texels for views along the grid rows), the
-//! depth with a CPU implementation of the same model (the nearest row whose silhouette reaches
-//! the pixel, found by a linear scan), and report its agreement with the exact CPU trace.
+//! depth with a CPU implementation of the same model ([`trace_cpu`]: the nearest row whose
+//! silhouette reaches the pixel, found by a linear scan; also the CLI's CPU backend), and
+//! report its agreement with the exact CPU trace.
 
 use crate::raycast::RayOutputs;
 use crate::util::{self, bind_buffers, compute_pipeline, groups, storage_entry, uniform_entry};
@@ -385,4 +386,153 @@ impl SilhouettePass {
 #[must_use]
 pub fn reads_per_pixel(width: u32, height: u32) -> u32 {
     padded_rows(width.max(height)).1 + 2
+}
+
+/// A frame traced by [`trace_cpu`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct CpuTrace {
+    /// Distance along each pixel's unit ray (`+inf` where the pixel sees no row).
+    pub depth: Vec<f32>,
+    /// Local height (`z - z_offset`) of the point each pixel sees (NaN for a miss), for
+    /// colouring as the GPU does.
+    pub height: Vec<f32>,
+}
+
+/// The silhouette-partitioning trace of `shaders/silhouette.wgsl` on the CPU in `f64`, the
+/// reference its tests compare the GPU with and the `relief render --backend cpu --method
+/// silhouette` renderer: per screen column, each row's silhouette (a binary search along the
+/// row for the crossing of the column, interpolated linearly), then per pixel the nearest row
+/// whose silhouette reaches it, found by a linear scan instead of the tree, interpolated with
+/// the row before; the depth is where the ray crosses that fractional row's vertical plane.
+/// [`Error::Unsupported`] when part of the terrain is behind the camera (as
+/// [`SilhouettePass::write_params`]).
+///
+/// ```
+/// use relief_core::{Camera, Heightfield};
+/// use glam::Vec3;
+/// let s: Vec<f32> = (0..32 * 32).map(|i| ((i % 32) as f32 * 0.3).sin() * 2.0).collect();
+/// let hf = Heightfield::new(&s, 32, 32).unwrap();
+/// let cam = Camera::new(Vec3::new(16.0, -20.0, 15.0), Vec3::new(16.0, 16.0, 0.0), 50.0, 40, 30).unwrap();
+/// let t = relief_wgpu::silhouette::trace_cpu(&hf, &cam).unwrap();
+/// assert!(t.depth.iter().any(|d| d.is_finite()));
+/// let behind = Camera::new(Vec3::new(16.0, 16.0, 15.0), Vec3::new(16.0, 40.0, 0.0), 50.0, 40, 30).unwrap();
+/// assert!(relief_wgpu::silhouette::trace_cpu(&hf, &behind).is_err());
+/// ```
+pub fn trace_cpu<T: relief_core::Terrain + ?Sized>(
+    terrain: &T,
+    cam: &Camera,
+) -> Result<CpuTrace, Error> {
+    let s = terrain.scale();
+    let (gw, gh) = (terrain.width(), terrain.height());
+    let (mut zmin, mut zmax) = (f64::INFINITY, f64::NEG_INFINITY);
+    for y in 0..gh {
+        for x in 0..gw {
+            let z = f64::from(terrain.local_z(x, y));
+            zmin = zmin.min(z);
+            zmax = zmax.max(z);
+        }
+    }
+    let m = RowMap::for_camera(cam, gw, gh);
+    let (f, r, u) = cam.basis();
+    let (f, r, u) = (f.as_dvec3(), r.as_dvec3(), u.as_dvec3());
+    let eye = cam.eye.as_dvec3() - glam::DVec3::new(0.0, 0.0, f64::from(s.z_offset));
+    for cx in [0.0, f64::from(gw - 1) * f64::from(s.dx)] {
+        for cy in [0.0, f64::from(gh - 1) * f64::from(s.dy)] {
+            for cz in [zmin, zmax] {
+                if (glam::DVec3::new(cx, cy, cz) - eye).dot(f) <= 0.0 {
+                    return Err(Error::Unsupported(
+                        "silhouette partitioning needs the whole terrain in front of the camera",
+                    ));
+                }
+            }
+        }
+    }
+    let grid = |k: i32, v: i32| {
+        [
+            m.origin[0] + k * m.ustep[0] + v * m.vstep[0],
+            m.origin[1] + k * m.ustep[1] + v * m.vstep[1],
+        ]
+    };
+    let screen = |k: i32, v: i32| {
+        let g = grid(k, v);
+        let p = glam::DVec3::new(
+            f64::from(g[0]) * f64::from(s.dx),
+            f64::from(g[1]) * f64::from(s.dy),
+            f64::from(terrain.local_z(g[0] as u32, g[1] as u32)),
+        );
+        let q = p - eye;
+        let vz = q.dot(f);
+        (q.dot(r) / vz, q.dot(u) / vz)
+    };
+    let (w, h) = (cam.width, cam.height);
+    let tan = f64::from(cam.tan_half_fov());
+    let aspect = f64::from(w) / f64::from(h);
+    let nu = m.row_len as i32;
+    let n = w as usize * h as usize;
+    let mut depth = vec![f32::INFINITY; n];
+    let mut height = vec![f32::NAN; n];
+    for i in 0..w {
+        let x = (2.0 * (f64::from(i) + 0.5) / f64::from(w) - 1.0) * aspect * tan;
+        // Silhouette map column: (y, u) per row, None where the row does not cover x.
+        let col: Vec<Option<(f64, f64)>> = (0..m.rows as i32)
+            .map(|v| {
+                let (a, b) = (screen(0, v), screen(nu - 1, v));
+                if x < a.0.min(b.0) || x > a.0.max(b.0) {
+                    return None;
+                }
+                let inc = b.0 > a.0;
+                let (mut lo, mut hi) = (0, nu - 1);
+                while hi - lo > 1 {
+                    let mid = (lo + hi) / 2;
+                    if (screen(mid, v).0 <= x) == inc {
+                        lo = mid;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                let (s0, s1) = (screen(lo, v), screen(hi, v));
+                let t = if s1.0 != s0.0 {
+                    ((x - s0.0) / (s1.0 - s0.0)).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                Some((
+                    s0.1 + t * (s1.1 - s0.1),
+                    f64::from(lo) + t * f64::from(hi - lo),
+                ))
+            })
+            .collect();
+        for j in 0..h {
+            let y = (1.0 - 2.0 * (f64::from(j) + 0.5) / f64::from(h)) * tan;
+            let Some((v, s1)) = col
+                .iter()
+                .enumerate()
+                .find_map(|(v, c)| c.filter(|c| c.0 >= y).map(|c| (v, c)))
+            else {
+                continue;
+            };
+            let (mut vh, mut uh) = (v as f64, s1.1);
+            if let Some(Some(s0)) = v.checked_sub(1).and_then(|p| col.get(p)) {
+                if s1.0 != s0.0 {
+                    let t = ((y - s0.0) / (s1.0 - s0.0)).clamp(0.0, 1.0);
+                    vh = (v - 1) as f64 + t;
+                    uh = s0.1 + t * (s1.1 - s0.1);
+                }
+            }
+            let dir = (f + x * r + y * u).normalize();
+            let gx =
+                f64::from(m.origin[0]) + vh * f64::from(m.vstep[0]) + uh * f64::from(m.ustep[0]);
+            let gy =
+                f64::from(m.origin[1]) + vh * f64::from(m.vstep[1]) + uh * f64::from(m.ustep[1]);
+            let t = if m.vstep[0] != 0 {
+                (gx * f64::from(s.dx) - eye.x) / dir.x
+            } else {
+                (gy * f64::from(s.dy) - eye.y) / dir.y
+            };
+            let k = (j * w + i) as usize;
+            depth[k] = t.max(0.0) as f32;
+            height[k] = (eye.z + t * dir.z) as f32;
+        }
+    }
+    Ok(CpuTrace { depth, height })
 }

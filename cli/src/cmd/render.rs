@@ -396,9 +396,9 @@ fn albedo(s: f32) -> Vec3 {
 /// and the GPU shader's CPU references: lighting (from the hit triangle's normal; the GPU
 /// samples a Sobel normal map), shadows, fog, the detail map's colour, the water plane and
 /// deformations (the craters applied to the heights with [`Crater::lowering`], then traced).
-/// Not on the CPU: a water *surface* file, depth output (a GPU depth buffer for meshes),
-/// silhouette partitioning, the cascade ray cast and the mesh method (it would need a CPU
-/// rasteriser). Also the report's fallback for effect costs where no GPU adapter exists.
+/// Not on the CPU: a water *surface* file, depth output (a GPU depth buffer for meshes), the
+/// cascade ray cast and the mesh method (it would need a CPU rasteriser); silhouette
+/// partitioning has its own CPU path ([`render_cpu_silhouette`]). Also the report's fallback for effect costs where no GPU adapter exists.
 pub(crate) fn render_cpu(
     hf: &Heightfield<'_, f32>,
     camera: &Camera,
@@ -574,6 +574,50 @@ pub(crate) fn render_cpu(
     })
 }
 
+/// The CPU backend of `--method silhouette`: the silhouette-partitioning model of the GPU pass
+/// in `f64` ([`relief_wgpu::silhouette::trace_cpu`]), coloured by the same height ramp. No
+/// effects.
+fn render_cpu_silhouette(
+    hf: &Heightfield<'_, f32>,
+    camera: &Camera,
+    effects: &[Effect],
+) -> CliResult<Rendered> {
+    if let Some(e) = effects.first() {
+        return Err(CliError(format!(
+            "effect '{}' is not available with --method silhouette on the CPU",
+            e.name()
+        )));
+    }
+    let t0 = Instant::now();
+    let t = relief_wgpu::silhouette::trace_cpu(hf, camera)?;
+    let trace_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let (lo, hi) = (local_min(hf), local_min(hf) + z_span(hf));
+    let sky = Vec3::new(0.55, 0.7, 0.9);
+    let color = t
+        .depth
+        .iter()
+        .zip(&t.height)
+        .map(|(d, z)| {
+            if d.is_finite() {
+                rgba(albedo((z - lo) / (hi - lo).max(1e-6)))
+            } else {
+                rgba(sky)
+            }
+        })
+        .collect();
+    Ok(Rendered {
+        width: camera.width,
+        height: camera.height,
+        depth: t.depth,
+        color,
+        device: "cpu (1 thread)".into(),
+        timing: "wall",
+        reads_per_pixel: None,
+        setup: Vec::new(),
+        passes: vec![("silhouette_trace".to_string(), trace_ms)],
+    })
+}
+
 /// Depth and colour of one pixel.
 type Pixel = (f32, [u8; 4]);
 
@@ -617,15 +661,16 @@ pub fn run(a: &RenderArgs) -> CliResult {
     let r = match a.backend {
         Backend::Gpu => render_gpu(&hf, &camera, a, &effects)?,
         Backend::Cpu => {
-            if matches!(
-                a.method,
-                RenderMethod::Mesh | RenderMethod::Silhouette | RenderMethod::Cascades
-            ) {
+            if matches!(a.method, RenderMethod::Mesh | RenderMethod::Cascades) {
                 return Err(CliError(
-                    "--method mesh, silhouette and cascades need --backend gpu".into(),
+                    "--method mesh and cascades need --backend gpu".into(),
                 ));
             }
-            render_cpu(&hf, &camera, a.method == RenderMethod::March, &effects)?
+            if a.method == RenderMethod::Silhouette {
+                render_cpu_silhouette(&hf, &camera, &effects)?
+            } else {
+                render_cpu(&hf, &camera, a.method == RenderMethod::March, &effects)?
+            }
         }
     };
     write_png(&a.out, r.width, r.height, &r.color)?;
