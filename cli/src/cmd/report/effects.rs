@@ -77,8 +77,14 @@ pub fn effects(ctx: &Ctx<'_>) -> CliResult<Section> {
                 ]);
                 rows.push(json!({"scene": name, "passes": passes[k], "ms": meds[k], "ratio": meds[k] / meds[0]}));
             }
+            let clock = match scenes.first().map(|s| s.1.clock()) {
+                Some(relief_wgpu::Clock::Gpu) => {
+                    "Times are GPU timestamps between the passes of one submission."
+                }
+                _ => "Times are wall-clock per pass, submitted and waited for (no GPU timestamps on this adapter).",
+            };
             s.text.push(format!(
-                "GPU backend on {} ({:?}), {w} x {h} pixels, {rounds} rounds. A scene names its effects; only the passes and shader variants they need are built and dispatched (the pass list is exact: tests assert it). Times are wall-clock per pass, submitted and waited for.",
+                "GPU backend on {} ({:?}), {w} x {h} pixels, {rounds} rounds. A scene names its effects; only the passes and shader variants they need are built and dispatched (the pass list is exact: tests assert it). {clock}",
                 gpu.info.name, gpu.info.backend
             ));
             s.summary = format!(
