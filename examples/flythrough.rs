@@ -6,12 +6,14 @@
 //!
 //! ```sh
 //! cargo run --release -p relief-examples --example flythrough -- data/puget_sound_1k.png out/flythrough 8
+//! # the RBF cascade ray cast (seed 002) instead, cascades refitted every frame:
+//! cargo run --release -p relief-examples --example flythrough -- data/puget_sound_1k.png out/cascades 8 cascades
 //! ```
 
 use relief_core::glam::Vec3;
 use relief_core::{Camera, Terrain};
 use relief_io::{read_dem, write_atomic, ReadOptions};
-use relief_wgpu::{headless, Effect, Renderer, Scene};
+use relief_wgpu::{headless, Effect, Method, Renderer, Scene};
 use std::path::PathBuf;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -22,6 +24,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let out_dir = PathBuf::from(args.next().unwrap_or_else(|| "out/flythrough".into()));
     let frames: u32 = args.next().map_or(Ok(6), |s| s.parse())?;
+    let cascades = args.next().is_some_and(|m| m == "cascades");
     let mut dem = read_dem(&input, &ReadOptions::default())?;
     if input.ends_with("puget_sound_1k.png") {
         // The bundled map: 160 m spacing, 0.1 m per unit.
@@ -33,7 +36,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // The application's device (an engine would pass its own).
     let gpu = headless()?;
     eprintln!("rendering on {} ({:?})", gpu.info.name, gpu.info.backend);
-    let scene = Scene::new().with_effects(&[Effect::Lighting, Effect::Shadows, Effect::Fog]);
+    let scene = if cascades {
+        Scene::new().with_method(Method::cascades())
+    } else {
+        Scene::new().with_effects(&[Effect::Lighting, Effect::Shadows, Effect::Fog])
+    };
     let mut renderer = Renderer::new(&gpu.device, &gpu.queue, &hf, scene)?;
 
     std::fs::create_dir_all(&out_dir)?;
@@ -60,6 +67,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })?;
         let names: Vec<&str> = passes.iter().map(|p| p.as_str()).collect();
         eprintln!("{} ({})", path.display(), names.join(", "));
+        if let Some(c) = renderer.cascades() {
+            let spacing: Vec<f32> = c.cascades.iter().map(|k| k.spacing).collect();
+            eprintln!("  cascade texel spacings (grid units): {spacing:?}");
+        }
     }
     Ok(())
 }
