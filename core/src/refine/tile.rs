@@ -23,6 +23,11 @@
 //! both tiles, errors and radii are nested within every tile, and every stored error still bounds
 //! the tile's own samples, so the union of the tile meshes is crack-free and within `E`.
 //!
+//! View-dependent refinement of the tiles sees equal errors and radii on the borders, but each
+//! tile evaluates its projected errors in its own coordinates (the camera moved by the tile's
+//! origin), so a decision exactly at the pixel threshold could round differently in two tiles;
+//! only the view-independent union is tested crack-free.
+//!
 //! Tiles of `2^k + 1` samples per side keep the hierarchy of each tile aligned with its
 //! neighbours'; the last tiles of a map whose size is not a multiple may be smaller (they embed in
 //! a smaller square, and their square corners are forced into both tiles' meshes by the merge).
