@@ -259,6 +259,14 @@ fn gpu_and_cpu_depth_agree_and_json_lists_the_passes() {
         return;
     };
     assert_eq!(pass_names(&cas, "setup_passes"), Vec::<String>::new());
+    let ks = cas["cascades"].as_array().unwrap();
+    assert_eq!(ks.len(), 3);
+    for (a, b) in ks.iter().zip(&ks[1..]) {
+        assert!(a["spacing"].as_f64() <= b["spacing"].as_f64(), "{a} {b}");
+        assert!(a["near"].as_f64() < b["near"].as_f64(), "{a} {b}");
+    }
+    assert!(ks.iter().all(|k| k["resolution"] == 256));
+    assert_eq!(gpu["cascades"], serde_json::Value::Null);
     assert_eq!(
         pass_names(&cas, "passes"),
         [

@@ -131,6 +131,8 @@ pub(crate) struct Rendered {
     timing: &'static str,
     /// Texel reads per pixel of `--method silhouette`.
     reads_per_pixel: Option<u32>,
+    /// The last frame's cascades of `--method cascades` (JSON objects).
+    cascades: Option<serde_json::Value>,
     setup: Vec<(String, f64)>,
     /// Per-frame passes with their milliseconds.
     pub(crate) passes: Vec<(String, f64)>,
@@ -247,6 +249,7 @@ fn render_gpu(
             device,
             timing: "wall",
             reads_per_pixel: None,
+            cascades: None,
             setup,
             passes: medians(&frames),
         });
@@ -328,6 +331,20 @@ fn render_gpu(
         device,
         timing: r.clock().as_str(),
         reads_per_pixel: r.silhouette_pass().map(|p| p.reads_per_pixel()),
+        cascades: r.cascades().map(|c| {
+            c.cascades
+                .iter()
+                .map(|k| {
+                    serde_json::json!({
+                        "spacing": k.spacing,
+                        "origin": k.origin,
+                        "resolution": k.resolution,
+                        "near": k.near,
+                        "far": k.far,
+                    })
+                })
+                .collect()
+        }),
         setup,
         passes: medians(&frames),
     })
@@ -569,6 +586,7 @@ pub(crate) fn render_cpu(
         device: format!("cpu ({} threads)", rayon::current_num_threads()),
         timing: "wall",
         reads_per_pixel: None,
+        cascades: None,
         setup,
         passes,
     })
@@ -613,6 +631,7 @@ fn render_cpu_silhouette(
         device: "cpu (1 thread)".into(),
         timing: "wall",
         reads_per_pixel: None,
+        cascades: None,
         setup: Vec::new(),
         passes: vec![("silhouette_trace".to_string(), trace_ms)],
     })
@@ -709,6 +728,7 @@ pub fn run(a: &RenderArgs) -> CliResult {
             "frames": a.repeat,
             "timing": r.timing,
             "reads_per_pixel": r.reads_per_pixel,
+            "cascades": r.cascades,
             "setup_passes": list(&r.setup),
             "passes": list(&r.passes),
             "frame_ms": frame_ms,
