@@ -315,8 +315,10 @@ impl<T: Terrain> RayTracer<'_, T> {
         let w = lookup(&c.w_t, lvl);
         let h = lookup(&c.h_t, lvl);
         let s = _mm512_sllv_epi64(c.one, lvl);
-        let x0i = _mm512_mullo_epi64(ix, s);
-        let y0i = _mm512_mullo_epi64(iy, s);
+        // ix * 2^lvl as a shift (the indices of a walking lane are never negative; idle lanes
+        // compute values that are never used); a 64-bit multiply has a long latency.
+        let x0i = _mm512_sllv_epi64(ix, lvl);
+        let y0i = _mm512_sllv_epi64(iy, lvl);
         let x1i = _mm512_min_epi64(_mm512_add_epi64(x0i, s), c.nx);
         let y1i = _mm512_min_epi64(_mm512_add_epi64(y0i, s), c.ny);
         let (ax, bx) = slab8(
@@ -339,7 +341,8 @@ impl<T: Terrain> RayTracer<'_, T> {
         let tb = _mm512_min_pd(_mm512_min_pd(pk.ln.t1, bx), by);
         // Node index in the tiled level (tiled_t of maxmip.rs).
         let tile = _mm512_add_epi64(
-            _mm512_mullo_epi64(_mm512_srai_epi64::<2>(iy), txs),
+            // Both factors are below 2^31: the 32 x 32 -> 64-bit multiply is exact.
+            _mm512_mul_epu32(_mm512_srai_epi64::<2>(iy), txs),
             _mm512_srai_epi64::<2>(ix),
         );
         let inner = _mm512_or_si512(
@@ -365,10 +368,18 @@ impl<T: Terrain> RayTracer<'_, T> {
             & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(zmin, m);
         let lvl0 = _mm512_cmpeq_epi64_mask(lvl, c.zero_i);
         let leaf = inside & lvl0;
-        let mut hit: __mmask8 = 0;
+        let mut hit_mask: __mmask8 = 0;
         if leaf != 0 {
             let (tas, tbs): ([f64; 8], [f64; 8]) = (cast(ta), cast(tb));
             let (xs, ys): ([i64; 8], [i64; 8]) = (cast(ix), cast(iy));
+            // Corner heights of every leaf lane first, then the exact tests: the sample loads
+            // (usually cache misses) of different lanes overlap.
+            let mut hs = [[0.0f64; 4]; PACKET_LANES];
+            for (k, (h, (&cx, &cy))) in hs.iter_mut().zip(xs.iter().zip(&ys)).enumerate() {
+                if leaf & (1 << k) != 0 {
+                    *h = self.corners(cx as u32, cy as u32);
+                }
+            }
             for k in 0..PACKET_LANES {
                 if leaf & (1 << k) == 0 {
                     continue;
@@ -379,24 +390,16 @@ impl<T: Terrain> RayTracer<'_, T> {
                 let (Some(ray), Some(o)) = (rays.get(r), out.get_mut(r)) else {
                     continue;
                 };
-                let (Some(&a), Some(&b), Some(&cx), Some(&cy)) =
-                    (tas.get(k), tbs.get(k), xs.get(k), ys.get(k))
+                let (Some(&a), Some(&b), Some(&cx), Some(&cy), Some(h)) =
+                    (tas.get(k), tbs.get(k), xs.get(k), ys.get(k), hs.get(k))
                 else {
                     continue;
                 };
                 o.cells += 1;
                 let (cx, cy) = (cx as u32, cy as u32);
-                if let Some(h) = super::cell::intersect(
-                    self.surface,
-                    &wk.lr,
-                    cx,
-                    cy,
-                    &self.corners(cx, cy),
-                    a,
-                    b,
-                ) {
-                    o.hit = Some(self.make_hit(ray, cx, cy, h));
-                    hit |= 1 << k;
+                if let Some(hit) = super::cell::intersect(self.surface, &wk.lr, cx, cy, h, a, b) {
+                    o.hit = Some(self.make_hit(ray, cx, cy, hit));
+                    hit_mask |= 1 << k;
                 }
             }
         }
@@ -446,7 +449,7 @@ impl<T: Terrain> RayTracer<'_, T> {
         pk.ln.iy = _mm512_mask_blend_epi64(descend, sy, dyi);
         pk.ln.lvl = _mm512_mask_blend_epi64(descend, sl, l);
         pk.ln.t = _mm512_mask_blend_pd(descend, st, ta);
-        let cont = live & !hit & (descend | !gone);
+        let cont = live & !hit_mask & (descend | !gone);
         let ended = pk.active & !cont;
         pk.active = cont;
         if ended != 0 {
