@@ -242,7 +242,9 @@ pub fn run(a: &MeshArgs) -> CliResult {
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let t1 = Instant::now();
     // One pass into bound-sized buffers (zeroed lazily by the allocator: only the pages the
-    // mesh fills are touched), then cut to the counts.
+    // mesh fills are touched), then cut to the counts. (Huge pages for these buffers were tried:
+    // with the kernel's `defrag = madvise` each 2 MiB fault may compact memory, and the pass
+    // took 1-6x longer.)
     let mut vertices = vec![[0.0f32; 3]; vertex_bound(w, h)];
     let mut triangles = vec![[0u32; 3]; triangle_bound(w, h)];
     let counts = refiner.triangles(&mut scratch, &mut vertices, &mut triangles)?;
