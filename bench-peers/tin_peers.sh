@@ -4,7 +4,9 @@
 # same max error E. Every tool reads the same raw f32 file (decoded once by dem_to_raw.py), so the
 # inputs are bit-identical. Times are each tool's whole build, measured inside the tool (relief:
 # refine_ms; pydelatin: the Delatin() call; delatin: constructor + run), fastest of ROUNDS
-# interleaved rounds of two runs each (the second run of a Python or Node process is warm).
+# interleaved rounds of two runs each (the second run of a Python or Node process is warm), both
+# wall-clock (ms) and on-CPU (cpu_ms: relief's and pydelatin's building thread, Node's whole
+# process), since on a shared machine wall-clock includes waiting for a core.
 #
 # usage: bench-peers/tin_peers.sh            (env: ROUNDS=3, DATA=../shared/data, RELIEF=path)
 # prints one JSON line per tool, DEM and E, then a table (tin_summary.py).
@@ -65,7 +67,7 @@ import json, sys
 r = json.load(sys.stdin)
 print(json.dumps({"dem": sys.argv[1], "tool": "relief-tin", "max_error": float(sys.argv[2]),
     "vertices": r["vertices"], "triangles": r["triangles"], "error": r["max_error_measured"],
-    "ms": r["refine_ms"]}))' "$name" "$e" | tee -a "$out"
+    "ms": r["refine_ms"], "cpu_ms": r.get("refine_cpu_ms")}))' "$name" "$e" | tee -a "$out"
     done; done
 done
 done

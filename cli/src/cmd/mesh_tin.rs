@@ -2,7 +2,10 @@
 //! spade; crate `relief-tin`) written as OBJ, with its measured vertical error.
 //!
 //! A TIN has no separate preprocessing: its whole build is reported in `refine_ms`
-//! (CONVENTIONS.md), and `preprocess_ms` is 0.
+//! (CONVENTIONS.md), and `preprocess_ms` is 0. `refine_cpu_ms` is the same build's on-CPU time
+//! of the building thread (Linux `/proc/thread-self/schedstat`; `null` elsewhere): on a loaded
+//! machine it leaves out the time the thread waited for a core, which wall-clock `refine_ms`
+//! does not.
 
 use crate::{print_out, CliError, CliResult};
 use relief_tin::{StopReason, Tin, TinOptions};
@@ -33,9 +36,14 @@ pub fn run_tin(
     options
         .validate()
         .map_err(|e| CliError(format!("invalid TIN options: {e}")))?;
+    let cpu0 = thread_cpu_ns();
     let t0 = Instant::now();
     let tin = Tin::build(&hf, &options)?;
     let refine_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let refine_cpu_ms = match (cpu0, thread_cpu_ns()) {
+        (Some(a), Some(b)) => Some(b.saturating_sub(a) as f64 * 1e-6),
+        _ => None,
+    };
     let t1 = Instant::now();
     let measured = tin.measure(&hf)?;
     let measure_ms = t1.elapsed().as_secs_f64() * 1e3;
@@ -60,6 +68,7 @@ pub fn run_tin(
             "rms_error": measured.rms,
             "preprocess_ms": 0.0,
             "refine_ms": refine_ms,
+            "refine_cpu_ms": refine_cpu_ms,
             "measure_ms": measure_ms,
             "write_ms": write_ms,
             "stop": stop,
@@ -127,4 +136,11 @@ mod tests {
         assert!(run_tin(&dem(), None, Some(3), &p, true).is_err());
         assert!(!p.exists());
     }
+}
+
+/// Time the calling thread has spent on a CPU, in nanoseconds (user and kernel), from Linux's
+/// `/proc/thread-self/schedstat`; `None` where that file does not exist or does not parse.
+fn thread_cpu_ns() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    s.split_whitespace().next()?.parse().ok()
 }
