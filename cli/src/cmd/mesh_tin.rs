@@ -3,7 +3,7 @@
 //!
 //! A TIN has no separate preprocessing: its whole build is reported in `refine_ms`
 //! (CONVENTIONS.md), and `preprocess_ms` is 0. `refine_cpu_ms` is the same build's on-CPU time
-//! of the building thread (Linux `/proc/thread-self/schedstat`; `null` elsewhere): on a loaded
+//! of the building thread (`CLOCK_THREAD_CPUTIME_ID`; `null` off Unix): on a loaded
 //! machine it leaves out the time the thread waited for a core, which wall-clock `refine_ms`
 //! does not.
 
@@ -138,9 +138,18 @@ mod tests {
     }
 }
 
-/// Time the calling thread has spent on a CPU, in nanoseconds (user and kernel), from Linux's
-/// `/proc/thread-self/schedstat`; `None` where that file does not exist or does not parse.
+/// Time the calling thread has spent on a CPU, in nanoseconds (user and kernel):
+/// `clock_gettime(CLOCK_THREAD_CPUTIME_ID)`, exact to the call (unlike `/proc`'s schedstat, which
+/// lags by up to a scheduler tick). `None` off Unix.
 fn thread_cpu_ns() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
-    s.split_whitespace().next()?.parse().ok()
+    #[cfg(unix)]
+    {
+        let t = rustix::time::clock_gettime(rustix::time::ClockId::ThreadCPUTime);
+        let ns = i128::from(t.tv_sec) * 1_000_000_000 + i128::from(t.tv_nsec);
+        u64::try_from(ns).ok()
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
 }
