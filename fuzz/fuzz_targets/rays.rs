@@ -2,12 +2,14 @@
 //! Invariants: the run-length DDA implies exactly the cell DDA's cells; every traversal stays
 //! within its step bound; a hit has finite `t >= 0`, lies inside the domain's prism and has a
 //! unit normal; the exact methods (cell DDA, run DDA, max-mip) agree on hit or miss and on `t`
-//! except for rays that graze the surface (checked by re-tracing the other method's answer).
+//! except for rays that graze the surface (checked by re-tracing the other method's answer); the
+//! max-mip packet paths (portable, and AVX-512 where the CPU has it) give the max-mip traces
+//! exactly.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use relief_core::glam::{DVec2, Vec3};
-use relief_core::ray::{GridLine, MarchOptions, MaxMip, Ray, RayTracer, RunAccel};
+use relief_core::ray::{GridLine, MarchOptions, MaxMip, Ray, RayTracer, RunAccel, Trace};
 use relief_core::{Heightfield, Surface, Terrain};
 
 fn f32_at(d: &[u8], i: usize) -> f32 {
@@ -59,6 +61,19 @@ fuzz_target!(|data: &[u8]| {
     let m = tracer
         .trace_march(&ray, &MarchOptions::default().with_samples(64))
         .unwrap();
+    // The packet paths give the max-mip trace exactly, alone and among other rays.
+    let down = Ray::new(Vec3::new(0.5, 0.5, 1e3), -Vec3::Z).unwrap();
+    let rays = [ray, down, ray];
+    let mut out = [Trace::default(); 3];
+    tracer.trace_maxmip_packet(&rays, &mip, &mut out).unwrap();
+    assert_eq!((out[0], out[2]), (c, c));
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512dq") {
+        let mut simd = [Trace::default(); 3];
+        // SAFETY: the CPU has AVX-512F and AVX-512DQ.
+        unsafe { tracer.trace_maxmip_packet_avx512(&rays, &mip, &mut simd) }.unwrap();
+        assert_eq!(simd, out);
+    }
     let ext = (f64::from(w - 1), f64::from(h - 1));
     for tr in [a, b, c, m.trace] {
         if let Some(hit) = tr.hit {
