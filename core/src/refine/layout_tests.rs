@@ -240,3 +240,38 @@ fn reused_scratch_gives_the_same_meshes() {
         }
     }
 }
+
+/// The triangle list skips the second decision of a vertex already in the mesh; the selection
+/// behind `count` and `morph` decides every visit. Both give the same vertices.
+#[test]
+fn skipping_repeated_decisions_keeps_the_mesh() {
+    let (w, h) = (65, 49);
+    let s = grid(w, h, 13, 40.0);
+    let sc = Scale::default().with_spacing(10.0, 10.0);
+    let hf = Heightfield::with_scale(&s, w, h, sc).unwrap();
+    let n = hierarchy_len(w, h);
+    let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+    let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+    let mut rec = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Interleaved)];
+    let il = pack_records(&full, &hf, RecordLayout::Interleaved, &mut rec).unwrap();
+    let mut scratch = vec![0u64; scratch_len(w, h)];
+    let mut checked = 0;
+    for hier in [&full, &il] {
+        for cam in cameras() {
+            for (lazy, cull) in [(0, true), (4, true), (2, false)] {
+                let v = View::new(&cam, 0.7)
+                    .unwrap()
+                    .with_lazy_levels(lazy)
+                    .with_culling(cull);
+                let r = Refiner::new(hier, &hf, Criterion::View(v)).unwrap();
+                let m = list(hier, &hf, Criterion::View(v));
+                let mut mv = vec![MorphVertex::default(); n];
+                let k = r.morph(&mut scratch, &mut mv).unwrap();
+                let pos: Vec<[f32; 3]> = mv[..k].iter().map(|v| v.position).collect();
+                assert_eq!(pos, m.v);
+                checked += usize::from(m.t.len() > 8);
+            }
+        }
+    }
+    assert!(checked > 6);
+}

@@ -297,6 +297,14 @@ pub struct Refiner<'h, 't, T: Terrain> {
 /// Receives the triangles of a traversal, counter-clockwise seen from +z.
 pub(crate) trait Sink {
     fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64));
+
+    /// Whether vertex `m` is already in the mesh. A vertex enters the mesh only when one of the
+    /// two triangles of its diamond is split, and the decision is the vertex's (nested), so
+    /// the other triangle must split it too: the traversal skips the second decision.
+    #[inline(always)]
+    fn seen(&self, _m: (i64, i64)) -> bool {
+        false
+    }
 }
 
 impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
@@ -806,7 +814,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             return;
         }
         let m = ((l.0 + r.0) / 2, (l.1 + r.1) / 2);
-        let d = if class == Class::Straddle {
+        let d = if class == Class::Straddle || sink.seen(m) {
+            // (After `seen`, the incoming planes are a superset of those the first decision
+            // left active: testing them again below is redundant, never wrong.)
             Decision::Split(planes)
         } else {
             self.decide(m, planes, level)
@@ -1275,6 +1285,15 @@ struct GridSink<'a, 's, 'o> {
 }
 
 impl Sink for GridSink<'_, '_, '_> {
+    #[inline(always)]
+    fn seen(&self, m: (i64, i64)) -> bool {
+        let i = (m.1 * self.w + m.0) as usize;
+        self.m
+            .bits
+            .get(i >> 6)
+            .is_some_and(|b| (b >> (i & 63)) & 1 == 1)
+    }
+
     #[inline(always)]
     fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64)) {
         let mut t = [0u32; 3];
