@@ -24,8 +24,9 @@ pub enum Layout {
     Full,
     /// bfloat16 error rounded up, radius from the level (2 bytes).
     Compact,
-    /// 8-byte records (height, bfloat16 error and radius) in the subtree-contiguous
-    /// (interleaved, Z-order) layout, packed from the full layout.
+    /// 8-byte records (height, bfloat16 error and radius) in the hierarchical interleaved
+    /// layout (level by level, Z-order within a level), packed from the full layout: for
+    /// view-dependent refinement of large grids.
     Records,
     /// 8-byte records in row-major order.
     RecordsLinear,
