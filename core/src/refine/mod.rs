@@ -17,8 +17,10 @@
 //!
 //! Bytes per vertex of preprocessed data (besides the heights, which stay in the caller's
 //! heightfield): 8 for [`preprocess`] (`f32` error and `f32` radius), 2 for
-//! [`preprocess_compact`] (`u16` error; radii come from the level). See
-//! [`Hierarchy::bytes_per_vertex`].
+//! [`preprocess_compact`] (`u16` error; radii come from the level), 8 for [`pack_records`]'s
+//! records, which hold the height too (bfloat16 error and radius), in a linear or a
+//! hierarchical interleaved layout for grids larger than the caches (SOAR's out-of-core
+//! indexing). See [`Hierarchy::bytes_per_vertex`].
 //!
 //! Any `width x height` grid works: it is embedded in the enclosing `(2^k+1)^2` square; triangles
 //! outside the domain are never emitted and those crossing its border are always split, so the
