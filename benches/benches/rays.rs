@@ -12,7 +12,10 @@
 //! With `RELIEF_RAYS_TABLE=1` it first prints a table of interleaved measurements (A, B, A, B,
 //! ... 31 rounds for traversal, 15 for tracing; the fastest round of each and their ratio), which
 //! is robust against load from other processes on a shared machine; then march error by sample
-//! count; the criterion groups follow.
+//! count; then max-mip ray by ray against the AVX-512 packet path (where the CPU has it), in
+//! rounds and in chunks of 512 rays (fastest of 9 per chunk, summed: see [`chunked`]); the
+//! criterion groups follow. `RELIEF_RAYS_TRAVERSAL=1` prints only the traversal rows,
+//! `RELIEF_RAYS_MIP=1` only the max-mip packet rows.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use relief_core::glam::{DVec2, Vec3};
