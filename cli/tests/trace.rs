@@ -222,5 +222,6 @@ fn march_view_dependent_samples_are_reported() {
         "view-dependent",
     );
     assert_one_line_error(&bad(&["--view-dependent-samples", "8"]), "march");
+    assert_one_line_error(&bad(&["--method", "run-dda", "--no-packet"]), "maxmip");
     assert!(!Path::new(&out).exists());
 }

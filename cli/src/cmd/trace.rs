@@ -204,6 +204,11 @@ pub fn run(a: &TraceArgs) -> CliResult {
             )));
         }
     }
+    if a.no_packet && a.method != Method::Maxmip {
+        return Err(CliError(
+            "--no-packet only applies to --method maxmip".into(),
+        ));
+    }
     if a.threads == Some(0) {
         return Err(CliError("--threads must be at least 1".into()));
     }
