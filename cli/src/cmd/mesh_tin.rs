@@ -90,6 +90,22 @@ pub fn run_tin(
     }
 }
 
+/// Time the calling thread has spent on a CPU, in nanoseconds (user and kernel):
+/// `clock_gettime(CLOCK_THREAD_CPUTIME_ID)`, exact to the call (unlike `/proc`'s schedstat, which
+/// lags by up to a scheduler tick). `None` off Unix.
+fn thread_cpu_ns() -> Option<u64> {
+    #[cfg(unix)]
+    {
+        let t = rustix::time::clock_gettime(rustix::time::ClockId::ThreadCPUTime);
+        let ns = i128::from(t.tv_sec) * 1_000_000_000 + i128::from(t.tv_nsec);
+        u64::try_from(ns).ok()
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::run_tin;
@@ -135,21 +151,5 @@ mod tests {
         assert!(run_tin(&dem(), Some(-1.0), None, &p, true).is_err());
         assert!(run_tin(&dem(), None, Some(3), &p, true).is_err());
         assert!(!p.exists());
-    }
-}
-
-/// Time the calling thread has spent on a CPU, in nanoseconds (user and kernel):
-/// `clock_gettime(CLOCK_THREAD_CPUTIME_ID)`, exact to the call (unlike `/proc`'s schedstat, which
-/// lags by up to a scheduler tick). `None` off Unix.
-fn thread_cpu_ns() -> Option<u64> {
-    #[cfg(unix)]
-    {
-        let t = rustix::time::clock_gettime(rustix::time::ClockId::ThreadCPUTime);
-        let ns = i128::from(t.tv_sec) * 1_000_000_000 + i128::from(t.tv_nsec);
-        u64::try_from(ns).ok()
-    }
-    #[cfg(not(unix))]
-    {
-        None
     }
 }
