@@ -19,8 +19,20 @@ for key in ("rust-version", "license", "repository"):
     s = re.sub(rf"^{key}\.workspace = true\n", "", s, flags=re.M)
 s = s.replace("version.workspace = true", 'version = "0.0.0"').replace("edition.workspace = true", 'edition = "2021"')
 for dep in ("glam", "bytemuck", "libm", "proptest"):
-    m = re.search(rf"^{dep} = (.*)$", root, flags=re.M)
-    s = s.replace(f"{dep} = {{ workspace = true }}", f"{dep} = {m.group(1)}")
+    spec = re.search(rf"^{dep} = (.*)$", root, flags=re.M).group(1).strip()
+    if spec.startswith('"'):
+        spec = f"{{ version = {spec} }}"
+    m = re.search(rf"^{dep} = \{{ workspace = true(?:, features = \[(.*?)\])? \}}$", s, flags=re.M)
+    if not m:
+        continue
+    extra = m.group(1)
+    if extra:
+        # Merge the member's extra features into the workspace spec's list (or add one).
+        if "features = [" in spec:
+            spec = spec.replace("features = [", f"features = [{extra}, ", 1)
+        else:
+            spec = spec[:-1].rstrip() + f", features = [{extra}] }}"
+    s = s[:m.start()] + f"{dep} = {spec}" + s[m.end():]
 open(core, "w").write(s + "\n[workspace]\n")
 PY
 export CARGO_TARGET_DIR="$tmp/target"
