@@ -3,11 +3,13 @@
 //! merge_border, renest until nothing is raised) the union of the tile meshes passes the crack
 //! checker and the full-grid error scan. Without the protocol it cracks (the control).
 
+use relief_core::glam::Vec3;
 use relief_core::refine::{
     border_len, coverage_len, export_border, hierarchy_len, merge_border, preprocess_pyramid,
     pyramid_len, renest, scratch_len, vertical_error, Criterion, PreprocessOptions, Refiner, Side,
+    View,
 };
-use relief_core::{Heightfield, Scale};
+use relief_core::{Camera, Heightfield, Scale};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
 use std::collections::HashMap;
 use std::path::Path;
@@ -240,4 +242,145 @@ fn random_small_maps_in_tiles() {
             check_union(&s, w, h, scale, &tiles, e);
         }
     }
+}
+
+/// Meshes every tile view-dependently for the same `view` (the map's world coordinates; each
+/// tile gets its grid origin) and welds the union.
+fn union_view(tiles: &[Vec<Tile>], scale: Scale, view: View) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let mut at: HashMap<(u32, u32), u32> = HashMap::new();
+    let (mut v, mut t) = (Vec::new(), Vec::new());
+    for tile in tiles.iter().flatten() {
+        let hf = Heightfield::with_scale(&tile.s, tile.w, tile.h, scale).unwrap();
+        let (mut te, mut tr) = (tile.e.clone(), tile.r.clone());
+        let h = renest(&hf, &mut te, &mut tr, &[], PreprocessOptions::default()).unwrap();
+        let c = Criterion::View(view.with_grid_origin(tile.x0, tile.y0));
+        let r = Refiner::new(&h, &hf, c).unwrap();
+        let mut sc = vec![0; scratch_len(tile.w, tile.h)];
+        let n = r.count(&mut sc).unwrap();
+        let mut tv = vec![[0.0; 3]; n.vertices];
+        let mut tt = vec![[0; 3]; n.triangles];
+        r.triangles(&mut sc, &mut tv, &mut tt).unwrap();
+        let map: Vec<u32> = tv
+            .iter()
+            .map(|p| {
+                let gx = (p[0] / scale.dx).round() as u32 + tile.x0;
+                let gy = (p[1] / scale.dy).round() as u32 + tile.y0;
+                *at.entry((gx, gy)).or_insert_with(|| {
+                    v.push([gx as f32 * scale.dx, gy as f32 * scale.dy, p[2]]);
+                    (v.len() - 1) as u32
+                })
+            })
+            .collect();
+        t.extend(tt.iter().map(|tri| tri.map(|i| map[i as usize])));
+    }
+    (v, t)
+}
+
+#[test]
+fn view_dependent_tiles_weld_crack_free() {
+    let (s, w, h, scale) = puget();
+    let mut tiles = cut(&s, w, h, 129, scale);
+    exchange(&mut tiles, scale);
+    let (ex, ey) = ((w - 1) as f32 * scale.dx, (h - 1) as f32 * scale.dy);
+    let top = s.iter().fold(f32::MIN, |a, &b| a.max(b)) * scale.z_scale + scale.z_offset;
+    let domain = ex as f64 * ey as f64;
+    // Eyes inside the tiled area: exactly above a tile corner (128, 128 samples from it), above a
+    // shared border looking along it, and low inside a tile looking across several borders.
+    let corner = Vec3::new(256.0 * scale.dx, 256.0 * scale.dy, top + 200.0);
+    let cams = [
+        (corner, Vec3::new(0.8 * ex, 0.7 * ey, 0.0)),
+        (
+            Vec3::new(384.0 * scale.dx, 0.3 * ey, top + 50.0),
+            Vec3::new(384.0 * scale.dx, 0.9 * ey, 0.0),
+        ),
+        (
+            Vec3::new(0.55 * ex, 0.45 * ey, top + 20.0),
+            Vec3::new(0.1 * ex, 0.2 * ey, 0.0),
+        ),
+    ];
+    for (eye, target) in cams {
+        let cam = Camera::new(eye, target, 60.0, 1024, 768).unwrap();
+        for (tau, culling, lazy) in [(1.0, false, 0), (2.0, true, 0), (0.5, true, 4)] {
+            let view = View::new(&cam, tau)
+                .unwrap()
+                .with_near_far(1.0, None)
+                .with_culling(culling)
+                .with_lazy_levels(lazy);
+            let (v, t) = union_view(&tiles, scale, view);
+            let mut o = CheckOptions::grid(w, h, scale.dx as f64, scale.dy as f64);
+            o.allow_holes = culling;
+            o.t_junctions = lazy == 0; // lazy culling may leave T-junctions outside the view
+            let what = format!("eye {eye} tau {tau} culling {culling} lazy {lazy}");
+            let rep = check_mesh(&v, &t, &o).unwrap_or_else(|m| panic!("{what}: {m}"));
+            if culling {
+                // The frustum crosses tile borders: part of the map is culled, part kept.
+                assert!(rep.area < 0.9 * domain, "{what}: area {}", rep.area);
+                assert!(rep.area > 0.01 * domain, "{what}: area {}", rep.area);
+            } else {
+                assert!((rep.area - domain).abs() < 1e-6 * domain, "{what}");
+            }
+        }
+    }
+}
+
+/// Decisions exactly at the pixel threshold: for every vertex on the border shared by two
+/// tiles, the threshold at which its projected error equals `tau` (computed in the map's frame),
+/// and the `f32` thresholds around it; at each, both tiles must keep or both split the vertex.
+/// Control (checked by hand when this test was written): with each tile's camera moved by the
+/// tile's origin in `f32` instead of `View::with_grid_origin`, this test fails (eye
+/// `[43.27, 5.29, 1001.64]`, tau `5.283691`: a crack at edge `(32, 1)-(32, 0)`).
+#[test]
+fn view_dependent_tiles_decide_shared_vertices_alike_at_the_threshold() {
+    let (w, h, size) = (65u32, 33u32, 33u32);
+    let mut st = 99u64;
+    let mut rnd = || {
+        st ^= st << 13;
+        st ^= st >> 7;
+        st ^= st << 17;
+        st
+    };
+    let s: Vec<f32> = (0..w * h).map(|_| (rnd() % 1000) as f32 * 0.01).collect();
+    // Spacing and offsets that are not exact in binary, so tile-local and map coordinates round
+    // differently.
+    let scale = Scale::default()
+        .with_spacing(0.3, 0.7)
+        .with_z_scale(0.1)
+        .with_z_offset(1000.1);
+    let mut tiles = cut(&s, w, h, size, scale);
+    exchange(&mut tiles, scale);
+    let mut total = 0;
+    for trial in 0..12 {
+        let eye = Vec3::new(
+            25.01 + trial as f32 * 9.13,
+            (3.0 + trial as f32 * 2.3) * 0.7 - 0.03,
+            1001.3 + trial as f32 * 0.17,
+        );
+        let cam = Camera::new(eye, Vec3::new(0.0, 0.0, 1000.0), 70.0, 800, 600).unwrap();
+        let kappa = cam.kappa() as f64;
+        let t0 = &tiles[0][0];
+        let mut taus = Vec::new();
+        for y in 0..h {
+            let k = (y * size + size - 1) as usize;
+            let (e, r) = (t0.e[k] as f64, t0.r[k] as f64);
+            let z = s[(y * w + size - 1) as usize] as f64 * 0.1f32 as f64;
+            let (dx, dy) = (
+                eye.x as f64 - (size - 1) as f64 * 0.3f32 as f64,
+                eye.y as f64 - y as f64 * 0.7f32 as f64,
+            );
+            let dz = eye.z as f64 - 1000.1f32 as f64 - z;
+            let d = (dx * dx + dy * dy + dz * dz).sqrt() - r;
+            if e.is_finite() && e > 0.0 && d > 0.0 {
+                let c = (e * kappa / d) as f32;
+                taus.extend([c.next_down(), c, c.next_up(), c.next_up().next_up()]);
+            }
+        }
+        total += taus.len();
+        for tau in taus {
+            let view = View::new(&cam, tau).unwrap().with_culling(false);
+            let (v, t) = union_view(&tiles, scale, view);
+            let o = CheckOptions::grid(w, h, scale.dx as f64, scale.dy as f64);
+            check_mesh(&v, &t, &o).unwrap_or_else(|m| panic!("eye {eye} tau {tau}: {m}"));
+        }
+    }
+    assert!(total >= 400, "{total} thresholds");
 }

@@ -52,6 +52,7 @@ pub struct View {
     culling: bool,
     lazy_levels: u32,
     morph_range: Option<f32>,
+    origin: (u32, u32),
 }
 
 impl View {
@@ -80,6 +81,7 @@ impl View {
             culling: true,
             lazy_levels: 4,
             morph_range: None,
+            origin: (0, 0),
         })
     }
 
@@ -167,6 +169,25 @@ impl View {
         self.morph_range = range;
         self
     }
+
+    /// For a tile of a larger map (see [`super::export_border`]): the tile's grid sample
+    /// `(0, 0)` is the map's sample `(x, y)` (default `(0, 0)`), and the camera is in the map's
+    /// world coordinates (not moved to the tile). Every view-dependent test then evaluates a
+    /// vertex at the map's grid index `(x + i, y + j)`, in `f64`, so two tiles that hold the
+    /// same error, radius and height for a shared border vertex decide it identically, bit for
+    /// bit, even exactly at the pixel threshold.
+    ///
+    /// ```
+    /// # use relief_core::{refine::View, Camera}; use glam::Vec3;
+    /// # let cam = Camera::new(Vec3::ZERO, Vec3::X, 60.0, 4, 4).unwrap();
+    /// let second_tile = View::new(&cam, 1.0).unwrap().with_grid_origin(256, 0);
+    /// # let _ = second_tile;
+    /// ```
+    #[must_use]
+    pub fn with_grid_origin(mut self, x: u32, y: u32) -> Self {
+        self.origin = (x, y);
+        self
+    }
 }
 
 /// Sizes of one frame's mesh.
@@ -250,6 +271,9 @@ pub(crate) struct ViewData {
     z_lo: f64,
     z_hi: f64,
     morph_range: f64,
+    /// Grid origin of the tile in the map ([`View::with_grid_origin`]).
+    ox: i64,
+    oy: i64,
 }
 
 /// What a vertex's test says.
@@ -882,8 +906,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             // SOAR's form without a square root: e kappa / tau + r > |eye - p|.
             if v.tau > 0.0 {
                 let s = self.h.scale();
-                let dx = v.eye[0] - m.0 as f64 * s.dx as f64;
-                let dy = v.eye[1] - m.1 as f64 * s.dy as f64;
+                let dx = v.eye[0] - (m.0 + v.ox) as f64 * s.dx as f64;
+                let dy = v.eye[1] - (m.1 + v.oy) as f64 * s.dy as f64;
                 let dz = v.eye[2] - z;
                 let reach = ef * v.kappa_over_tau + r;
                 ef > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz
@@ -913,7 +937,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     #[inline(always)]
     fn distance(&self, v: &ViewData, m: [i64; 2], z: f64, r: f64) -> f64 {
         let s = self.h.scale();
-        let (px, py) = (m[0] as f64 * s.dx as f64, m[1] as f64 * s.dy as f64);
+        let (px, py) = (
+            (m[0] + v.ox) as f64 * s.dx as f64,
+            (m[1] + v.oy) as f64 * s.dy as f64,
+        );
         let (dx, dy) = (v.eye[0] - px, v.eye[1] - py);
         if self.h.spheres() {
             let dz = v.eye[2] - z;
@@ -930,7 +957,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     #[inline(always)]
     fn cull(&self, v: &ViewData, m: (i64, i64), z: f64, r: f64, planes: u8) -> Option<u8> {
         let s = self.h.scale();
-        let (px, py) = (m.0 as f64 * s.dx as f64, m.1 as f64 * s.dy as f64);
+        let (px, py) = (
+            (m.0 + v.ox) as f64 * s.dx as f64,
+            (m.1 + v.oy) as f64 * s.dy as f64,
+        );
         let mut out = planes;
         for (k, p) in v.planes.iter().enumerate() {
             if planes & (1 << k) == 0 {
@@ -1000,6 +1030,8 @@ fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Err
         z_lo: z_lo as f64,
         z_hi: z_hi as f64,
         morph_range: v.morph_range.map_or(0.0, |r| r as f64),
+        ox: i64::from(v.origin.0),
+        oy: i64::from(v.origin.1),
     })
 }
 

@@ -23,10 +23,13 @@
 //! both tiles, errors and radii are nested within every tile, and every stored error still bounds
 //! the tile's own samples, so the union of the tile meshes is crack-free and within `E`.
 //!
-//! View-dependent refinement of the tiles sees equal errors and radii on the borders, but each
-//! tile evaluates its projected errors in its own coordinates (the camera moved by the tile's
-//! origin), so a decision exactly at the pixel threshold could round differently in two tiles;
-//! only the view-independent union is tested crack-free.
+//! View-dependent refinement of the tiles: give every tile the same camera, in the map's world
+//! coordinates, and its grid origin ([`super::View::with_grid_origin`]). Each view-dependent test
+//! then evaluates a vertex at its map grid index in `f64` (projected error and frustum planes),
+//! so two tiles decide a shared border vertex bit for bit alike, even exactly at the pixel
+//! threshold (moving the camera by the tile's origin in `f32` instead does crack there: see
+//! `tests/tests/refine_tiles.rs`). Frustum culling uses the same planes in every tile, so a
+//! border vertex is culled in both tiles or in neither.
 //!
 //! Tiles of `2^k + 1` samples per side keep the hierarchy of each tile aligned with its
 //! neighbours'; the last tiles of a map whose size is not a multiple may be smaller (they embed in
