@@ -270,10 +270,152 @@ pub(crate) fn shape(
 
 /// Computes and stores the nested error (and radius) of vertex `(x, y)` (half-size `h`, pass
 /// `pass` as in [`shape`]) from its diamond and its children's stored values (which must be
-/// final).
+/// final). Finest-level vertices (`h = 1`) whose 3 x 3 neighbourhood lies in the domain take
+/// [`vertex_finest`], the others [`vertex_general`]; both store bit-identical values (tested).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn vertex<T: Terrain, E: ErrorSink + ?Sized>(
+    t: &T,
+    g: &RefineGrid,
+    (x, y, h, pass): (i64, i64, i64, usize),
+    errors: &mut E,
+    radii: Option<&mut [f32]>,
+    contain_corners: bool,
+    pruning: Option<Pruning<'_>>,
+) {
+    if FAST_FINEST.get() && h == 1 && x >= 1 && y >= 1 && g.in_domain(x + 1, y + 1) {
+        vertex_finest(t, g, (x, y, pass), errors, radii, contain_corners);
+    } else {
+        vertex_general(
+            t,
+            g,
+            (x, y, h, pass),
+            errors,
+            radii,
+            contain_corners,
+            pruning,
+        );
+    }
+}
+
+/// Whether [`vertex`] may take [`vertex_finest`] (always outside tests; tests switch it off to
+/// compare against [`vertex_general`], the reference).
+#[cfg(not(test))]
+struct FastFinest;
+#[cfg(not(test))]
+impl FastFinest {
+    #[inline(always)]
+    fn get(&self) -> bool {
+        true
+    }
+}
+#[cfg(not(test))]
+const FAST_FINEST: FastFinest = FastFinest;
+#[cfg(test)]
+std::thread_local! {
+    /// Test switch: `false` forces the reference path.
+    pub(crate) static FAST_FINEST: core::cell::Cell<bool> = const { core::cell::Cell::new(true) };
+}
+
+/// L-infinity error of a triangle of area 1 or 2 given in coordinates relative to its vertex
+/// (each in `-1..=1`), heights from the 3 x 3 neighbourhood `nb` (row-major, `nb[4]` the
+/// vertex): [`triangle_error`]'s closed form with the same plane formula (a plane depends only on
+/// coordinate differences, so relative coordinates give the same values), which constant
+/// coordinates let the compiler fold.
+#[inline(always)]
+fn small_error(nb: &[f64; 9], p: [(i64, i64); 3]) -> f64 {
+    let at = |q: (i64, i64)| {
+        nb.get(((q.1 + 1) * 3 + q.0 + 1) as usize)
+            .copied()
+            .unwrap_or(0.0)
+    };
+    let z = [at(p[0]), at(p[1]), at(p[2])];
+    let Some(plane) = Plane::new([
+        (p[0].0, p[0].1, z[0]),
+        (p[1].0, p[1].1, z[1]),
+        (p[2].0, p[2].1, z[2]),
+    ]) else {
+        return 0.0;
+    };
+    let mut e = 0.0f64;
+    for k in 0..3 {
+        let (a, b) = (p[k], p[(k + 1) % 3]);
+        e = e.max((z[k] - plane.at(a.0, a.1)).abs());
+        if (a.0 - b.0) % 2 == 0 && (a.1 - b.1) % 2 == 0 {
+            let (mx, my) = ((a.0 + b.0) / 2, (a.1 + b.1) / 2);
+            e = e.max((at((mx, my)) - plane.at(mx, my)).abs());
+        }
+    }
+    e
+}
+
+/// [`vertex_general`] for a vertex of half-size 1 at `(x, y)` whose 3 x 3 neighbourhood lies in
+/// the domain (so every triangle is inside and every corner and child in the domain): the nine
+/// heights are read once, the diamond's two planes are built in relative coordinates, and the
+/// arithmetic is otherwise the same, in the same order.
+#[inline(always)]
+fn vertex_finest<T: Terrain, E: ErrorSink + ?Sized>(
+    t: &T,
+    g: &RefineGrid,
+    (x, y, pass): (i64, i64, usize),
+    errors: &mut E,
+    radii: Option<&mut [f32]>,
+    contain_corners: bool,
+) {
+    let w = g.width() as usize;
+    let idx = |x: i64, y: i64| y as usize * w + x as usize;
+    let mut nb = [0.0f64; 9];
+    for (k, v) in nb.iter_mut().enumerate() {
+        let (dx, dy) = ((k % 3) as i64 - 1, (k / 3) as i64 - 1);
+        *v = local(t, x + dx, y + dy);
+    }
+    // Relative coordinates: the compiler folds `(x + c) - x` to `c`.
+    let rel = |q: (i64, i64)| (q.0 - x, q.1 - y);
+    let (diamond, kids) = shape(g, x, y, 1, pass);
+    let mut c = 0.0f32;
+    for &(cx, cy) in kids.iter().flatten() {
+        c = c.max(errors.get(idx(cx, cy)));
+    }
+    let mut e = 0.0f64;
+    for tri in diamond.iter().flatten() {
+        e = e.max(small_error(&nb, [rel(tri[0]), rel(tri[1]), rel(tri[2])]));
+    }
+    errors.put(idx(x, y), round_up(e).max(c));
+    if let Some(r) = radii {
+        let s = t.scale();
+        let pos = |q: (i64, i64)| {
+            let (dx, dy) = rel(q);
+            let z = nb
+                .get(((dy + 1) * 3 + dx + 1) as usize)
+                .copied()
+                .unwrap_or(0.0);
+            [q.0 as f64 * s.dx as f64, q.1 as f64 * s.dy as f64, z]
+        };
+        let p = pos((x, y));
+        let mut rad = 0.0f64;
+        if contain_corners {
+            let [a, b] = diamond;
+            let seen = |q: (i64, i64)| a.is_some_and(|ta| ta.contains(&q));
+            let firsts = a.into_iter().flatten();
+            let seconds = b.into_iter().flatten().filter(|&q| !seen(q));
+            for q in firsts.chain(seconds) {
+                rad = rad.max(dist(p, pos(q)));
+            }
+        }
+        for &q in kids.iter().flatten() {
+            let rc = r.get(idx(q.0, q.1)).copied().unwrap_or(0.0) as f64;
+            rad = rad.max(dist(p, pos(q)) + rc);
+        }
+        if let Some(slot) = r.get_mut(idx(x, y)) {
+            *slot = round_up(rad * (1.0 + SPHERE_MARGIN) + f64::MIN_POSITIVE);
+        }
+    }
+}
+
+/// The reference computation of [`vertex`] for any vertex.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn vertex_general<T: Terrain, E: ErrorSink + ?Sized>(
     t: &T,
     g: &RefineGrid,
     (x, y, h, pass): (i64, i64, i64, usize),
@@ -474,4 +616,117 @@ pub(crate) fn finish<'a, T: Terrain>(
 ) -> Hierarchy<'a> {
     let (z_min, z_max) = z_range(t);
     Hierarchy::assemble(grid, t.scale(), errors, radii, z_min, z_max)
+}
+
+#[cfg(test)]
+mod fast_tests {
+    use super::super::{
+        hierarchy_len, preprocess_compact, preprocess_pyramid, preprocess_with, pyramid_len,
+        PreprocessOptions,
+    };
+    use super::FAST_FINEST;
+    use crate::{Heightfield, Scale};
+    use std::vec;
+    use std::vec::Vec;
+
+    fn terrain(w: u32, h: u32, seed: u64, kind: u32) -> Vec<f32> {
+        let mut s = seed | 1;
+        let mut r = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            s
+        };
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = ((i % w) as f32, (i / w) as f32);
+                let n = ((r() >> 11) % 100_000) as f32 / 100_000.0;
+                match kind {
+                    0 => 30.0 * libm::sinf(x * 0.11) * libm::cosf(y * 0.07) + 0.3 * x + 5.0 * n,
+                    1 => (r() % 7) as f32, // small integers: many exact ties and zero errors
+                    2 => 1.0e6 * n - 5.0e5, // large magnitudes: rounding in the planes
+                    _ => {
+                        if i == (w * h) / 2 {
+                            100.0
+                        } else {
+                            0.0
+                        }
+                    }
+                }
+            })
+            .collect()
+    }
+
+    /// Runs `f` with the finest-level fast path on and off.
+    fn both<R>(mut f: impl FnMut() -> R) -> (R, R) {
+        FAST_FINEST.set(true);
+        let fast = f();
+        FAST_FINEST.set(false);
+        let reference = f();
+        FAST_FINEST.set(true);
+        (fast, reference)
+    }
+
+    fn bits(v: &[f32]) -> Vec<u32> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// Every preprocessing entry point stores bit-identical errors and radii with the
+    /// finest-level fast path and with the general (reference) path, on grids of many shapes
+    /// (odd, even, tiny, non-square), four terrains, unit and non-unit scales, both sphere kinds.
+    #[test]
+    fn finest_fast_path_is_bit_identical() {
+        let sizes = [
+            (2, 2),
+            (3, 3),
+            (4, 3),
+            (5, 5),
+            (9, 9),
+            (10, 7),
+            (17, 33),
+            (33, 33),
+            (64, 48),
+            (65, 65),
+            (100, 77),
+        ];
+        let scales = [
+            Scale::default(),
+            Scale::default().with_spacing(160.0, 37.5).with_z_scale(0.1),
+        ];
+        let mut nonzero = 0usize;
+        for (si, &(w, h)) in sizes.iter().enumerate() {
+            for kind in 0..4 {
+                let s = terrain(w, h, 7 + si as u64 * 31 + kind as u64, kind);
+                for scale in scales {
+                    let hf = Heightfield::with_scale(&s, w, h, scale).unwrap();
+                    let n = hierarchy_len(w, h);
+                    for contain in [true, false] {
+                        let o = PreprocessOptions::default().with_contain_diamond(contain);
+                        let (a, b) = both(|| {
+                            let (mut e, mut r) = (vec![0.0f32; n], vec![0.0f32; n]);
+                            preprocess_with(&hf, &mut e, &mut r, o).unwrap();
+                            (bits(&e), bits(&r))
+                        });
+                        assert_eq!(a, b, "{w}x{h} kind {kind} contain {contain}");
+                        nonzero += a.0.iter().filter(|&&e| e != 0).count();
+                        let (a, b) = both(|| {
+                            let (mut e, mut r) = (vec![0.0f32; n], vec![0.0f32; n]);
+                            let mut p = vec![0.0f32; pyramid_len(w, h)];
+                            preprocess_pyramid(&hf, &mut e, &mut r, &mut p, o).unwrap();
+                            (bits(&e), bits(&r))
+                        });
+                        assert_eq!(a, b, "pyramid {w}x{h} kind {kind} contain {contain}");
+                    }
+                    let (a, b) = both(|| {
+                        let mut e = vec![0u16; n];
+                        preprocess_compact(&hf, &mut e).unwrap();
+                        e
+                    });
+                    assert_eq!(a, b, "compact {w}x{h} kind {kind}");
+                }
+            }
+        }
+        // The comparison is not between two arrays of zeros.
+        assert!(nonzero > 10_000, "{nonzero}");
+    }
 }

@@ -15,7 +15,9 @@ pub(crate) struct Plane {
 }
 
 impl Plane {
-    /// `None` for a degenerate (collinear) triangle.
+    /// `None` for a degenerate (collinear) triangle. Always inlined: preprocessing's finest
+    /// level calls it with constant relative coordinates, which then fold.
+    #[inline(always)]
     pub(crate) fn new(mut p: [(i64, i64, f64); 3]) -> Option<Plane> {
         // A three-element sorting network by (y, x) (the generic sort is slow for three).
         let key = |q: &(i64, i64, f64)| (q.1, q.0);
