@@ -6,8 +6,8 @@
 use relief_core::glam::Vec3;
 use relief_core::refine::{
     border_len, coverage_len, export_border, hierarchy_len, merge_border, preprocess_pyramid,
-    pyramid_len, renest, scratch_len, vertical_error, Criterion, PreprocessOptions, Refiner, Side,
-    View,
+    pyramid_len, renest, scratch_len, skirt, skirt_bound, vertical_error, Criterion,
+    PreprocessOptions, Refiner, Side, View,
 };
 use relief_core::{Camera, Heightfield, Scale};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
@@ -383,4 +383,108 @@ fn view_dependent_tiles_decide_shared_vertices_alike_at_the_threshold() {
         }
     }
     assert!(total >= 400, "{total} thresholds");
+}
+
+/// `skirt` on real tile meshes: one quad (two triangles) per mesh edge on the tile border, none
+/// elsewhere; every skirt triangle vertical, facing away from the tile, `depth` deep.
+#[test]
+fn skirts_hang_below_every_border_edge_and_face_outwards() {
+    let (s, w, h, scale) = puget();
+    let tiles = cut(&s[..], w, h, 129, scale);
+    for tile in [&tiles[0][0], &tiles[3][5], &tiles[7][7]] {
+        let hf = Heightfield::with_scale(&tile.s, tile.w, tile.h, scale).unwrap();
+        let (mut te, mut tr) = (tile.e.clone(), tile.r.clone());
+        let hi = renest(&hf, &mut te, &mut tr, &[], PreprocessOptions::default()).unwrap();
+        let r = Refiner::new(&hi, &hf, Criterion::MaxError(8.0)).unwrap();
+        let mut sc = vec![0; scratch_len(tile.w, tile.h)];
+        let n = r.count(&mut sc).unwrap();
+        let mut v = vec![[0.0; 3]; n.vertices];
+        let mut t = vec![[0; 3]; n.triangles];
+        r.triangles(&mut sc, &mut v, &mut t).unwrap();
+        // Boundary edges of the mesh (one triangle): exactly the tile's border edges.
+        let mut count: HashMap<(u32, u32), i32> = HashMap::new();
+        for tri in &t {
+            for (a, b) in [(tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])] {
+                *count.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        let boundary = count.values().filter(|&&c| c == 1).count();
+        let bound = skirt_bound(tile.w, tile.h);
+        let (mut sv, mut st) = (vec![[0.0; 3]; bound], vec![[0; 3]; bound]);
+        let depth = 50.0;
+        let (nv, nt) = skirt(
+            tile.w,
+            tile.h,
+            scale,
+            &v,
+            &t,
+            &Side::ALL,
+            depth,
+            &mut sv,
+            &mut st,
+        )
+        .unwrap();
+        assert_eq!((nv, nt), (2 * boundary, 2 * boundary));
+        let all: Vec<[f32; 3]> = v.iter().chain(&sv[..nv]).copied().collect();
+        let (cx, cy) = (
+            (tile.w - 1) as f32 * scale.dx / 2.0,
+            (tile.h - 1) as f32 * scale.dy / 2.0,
+        );
+        for tri in &st[..nt] {
+            let p = tri.map(|i| all[i as usize]);
+            let u = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+            let q = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+            let nrm = [
+                u[1] * q[2] - u[2] * q[1],
+                u[2] * q[0] - u[0] * q[2],
+                u[0] * q[1] - u[1] * q[0],
+            ];
+            assert_eq!(nrm[2], 0.0, "vertical");
+            let mid = [
+                (p[0][0] + p[1][0]) / 2.0 - cx,
+                (p[0][1] + p[1][1]) / 2.0 - cy,
+            ];
+            assert!(nrm[0] * mid[0] + nrm[1] * mid[1] > 0.0, "faces outwards");
+        }
+        for k in 0..nv / 2 {
+            assert_eq!(sv[2 * k][2], all[st[2 * k][1] as usize][2] - depth);
+        }
+        // Bad input: depth, a buffer too small, an index outside the vertices.
+        let e = skirt(
+            tile.w,
+            tile.h,
+            scale,
+            &v,
+            &t,
+            &Side::ALL,
+            f32::NAN,
+            &mut sv,
+            &mut st,
+        );
+        assert!(e.is_err());
+        let e = skirt(
+            tile.w,
+            tile.h,
+            scale,
+            &v,
+            &t,
+            &Side::ALL,
+            depth,
+            &mut sv[..nv - 1],
+            &mut st,
+        );
+        assert!(matches!(e, Err(relief_core::Error::BufferTooSmall { .. })));
+        let e = skirt(
+            tile.w,
+            tile.h,
+            scale,
+            &v[..1],
+            &t,
+            &Side::ALL,
+            depth,
+            &mut sv,
+            &mut st,
+        );
+        assert!(matches!(e, Err(relief_core::Error::BufferTooSmall { .. })));
+    }
 }

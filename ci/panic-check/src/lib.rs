@@ -727,3 +727,32 @@ pub unsafe extern "C" fn pc_refine_edit(
     }
     acc
 }
+
+/// Skirts for a tile's mesh (core::refine::tile::skirt) on arbitrary vertices and triangles.
+#[no_mangle]
+pub unsafe extern "C" fn pc_refine_skirt(
+    w: u32,
+    h: u32,
+    s: &[f32; 4],
+    verts: *const [f32; 3],
+    nv: usize,
+    tris: *const [u32; 3],
+    nt: usize,
+    depth: f32,
+    out_v: *mut [f32; 3],
+    out_t: *mut [u32; 3],
+    out_len: usize,
+) -> usize {
+    relief_core::refine::skirt(
+        w,
+        h,
+        scale(s),
+        view(verts, nv),
+        view(tris, nt),
+        &Side::ALL,
+        depth,
+        view_mut(out_v, out_len),
+        view_mut(out_t, out_len),
+    )
+    .map_or(0, |(a, b)| a + b)
+}

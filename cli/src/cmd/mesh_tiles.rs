@@ -7,8 +7,8 @@
 use crate::{print_out, CliError, CliResult};
 use relief_core::refine::{
     border_len, coverage_len, export_border, hierarchy_len, merge_border, preprocess_pyramid,
-    pyramid_len, renest, scratch_len, vertical_error_partial, Criterion, PreprocessOptions,
-    Refiner, Side,
+    pyramid_len, renest, scratch_len, skirt, skirt_bound, vertical_error_partial, Criterion,
+    PreprocessOptions, Refiner, Side,
 };
 use relief_core::{Heightfield, Scale};
 use relief_io::Dem;
@@ -114,37 +114,22 @@ fn exchange(tiles: &mut [Tile], cols: usize, scale: Scale) -> CliResult<usize> {
     ))
 }
 
-/// Appends a skirt: for every mesh edge on the tile's border, two triangles hanging `depth`
-/// below it (facing outwards), with new vertices under the border vertices.
-fn add_skirt(v: &mut Vec<[f32; 3]>, t: &mut Vec<[u32; 3]>, w: u32, h: u32, s: Scale, depth: f32) {
-    let (xmax, ymax) = ((w - 1) as f32 * s.dx, (h - 1) as f32 * s.dy);
-    let on = |p: [f32; 3], q: [f32; 3]| {
-        (p[0] == q[0] && (p[0] == 0.0 || p[0] == xmax))
-            || (p[1] == q[1] && (p[1] == 0.0 || p[1] == ymax))
-    };
-    let mut below: HashMap<u32, u32> = HashMap::new();
-    let n = t.len();
-    for k in 0..n {
-        let tri = t[k];
-        for (a, b) in [(tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])] {
-            let (pa, pb) = (v[a as usize], v[b as usize]);
-            if !on(pa, pb) {
-                continue;
-            }
-            let mut low = |i: u32| {
-                *below.entry(i).or_insert_with(|| {
-                    let p = v[i as usize];
-                    v.push([p[0], p[1], p[2] - depth]);
-                    (v.len() - 1) as u32
-                })
-            };
-            let (la, lb) = (low(a), low(b));
-            // The mesh triangle runs a -> b counter-clockwise seen from above, so the outside is
-            // to the right of a -> b: (b, a, la) and (b, la, lb) face outwards.
-            t.push([b, a, la]);
-            t.push([b, la, lb]);
-        }
-    }
+/// Appends a skirt (relief_core::refine::skirt): for every mesh edge on the tile's border, two
+/// triangles hanging `depth` below it (facing outwards).
+fn add_skirt(
+    v: &mut Vec<[f32; 3]>,
+    t: &mut Vec<[u32; 3]>,
+    w: u32,
+    h: u32,
+    s: Scale,
+    depth: f32,
+) -> CliResult<()> {
+    let n = skirt_bound(w, h);
+    let (mut sv, mut st) = (vec![[0.0f32; 3]; n], vec![[0u32; 3]; n]);
+    let (nv, nt) = skirt(w, h, s, v, t, &Side::ALL, depth, &mut sv, &mut st)?;
+    v.extend_from_slice(&sv[..nv]);
+    t.extend_from_slice(&st[..nt]);
+    Ok(())
 }
 
 /// Meshes `dem` in tiles and writes `DIR/tile_<col>_<row>.obj`.
@@ -246,7 +231,7 @@ pub fn run(dem: &Dem, o: &TileOptions<'_>) -> CliResult {
             .collect();
         ut.extend(tr.iter().map(|k| k.map(|i| map[i as usize])));
         if let Some(d) = o.skirt {
-            add_skirt(&mut v, &mut tr, t.w, t.h, scale, d);
+            add_skirt(&mut v, &mut tr, t.w, t.h, scale, d)?;
         }
         // World coordinates of the whole map.
         for p in &mut v {

@@ -72,7 +72,7 @@ pub use grid::RefineGrid;
 pub use layout::{pack_records, records_len, RecordLayout, VertexRecord};
 pub use scan::{coverage_len, vertical_error, vertical_error_partial, Uncovered};
 pub use select::{Criterion, FrameCounts, MorphVertex, Refiner, StripCounts, View};
-pub use tile::{border_len, export_border, merge_border, renest, Side};
+pub use tile::{border_len, export_border, merge_border, renest, skirt, skirt_bound, Side};
 pub use update::{
     crater, preprocess_compact_pyramid, preprocess_pyramid, pyramid_len, update, update_compact,
     Region,

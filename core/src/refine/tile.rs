@@ -361,3 +361,139 @@ fn nest_range<T: Terrain>(
         y += step;
     }
 }
+
+/// Most skirt vertices, and most skirt triangles, [`skirt`] emits for a `width x height` tile:
+/// two per border edge, `4 ((width - 1) + (height - 1))` (saturating).
+///
+/// ```
+/// assert_eq!(relief_core::refine::skirt_bound(257, 129), 4 * (256 + 128));
+/// ```
+#[must_use]
+pub const fn skirt_bound(width: u32, height: u32) -> usize {
+    let w = width.saturating_sub(1) as usize;
+    let h = height.saturating_sub(1) as usize;
+    w.saturating_add(h).saturating_mul(4)
+}
+
+/// Optional skirts for a tile's mesh (issue 6: tiles weld without them, but some users want
+/// them, e.g. to hide gaps to tiles meshed by other software): for every mesh edge lying on one
+/// of `sides` of the `width x height` tile (both ends on that side's grid line), two triangles
+/// hanging `depth` world units straight below the edge, facing outwards.
+///
+/// `vertices` and `triangles` are the tile's mesh as [`super::Refiner::triangles`] writes it
+/// (world units, the tile's sample `(i, j)` at `(i dx, j dy)` with `scale`'s spacing;
+/// counter-clockwise seen from +z). The skirt's vertices go to `out_vertices` and are numbered
+/// after the mesh's (`vertices.len()`, `vertices.len() + 1`, ...) so the caller appends them;
+/// each border edge gets its own two (positions, not indices, are shared with the neighbouring
+/// edges' skirts). Buffers of [`skirt_bound`] always suffice. Returns the counts
+/// `(vertices, triangles)` (equal: two each per border edge).
+///
+/// Errors: `depth` not finite and `> 0`; a triangle index outside `vertices`
+/// ([`Error::BufferTooSmall`] naming the index needed); an output buffer too small.
+///
+/// ```
+/// use relief_core::refine::{skirt, skirt_bound, Side};
+/// use relief_core::Scale;
+/// // A 2 x 2 tile as two triangles (spacing 1).
+/// let v = [[0.0f32, 0.0, 5.0], [1.0, 0.0, 5.0], [0.0, 1.0, 5.0], [1.0, 1.0, 5.0]];
+/// let t = [[0u32, 1, 3], [0, 3, 2]];
+/// let mut sv = vec![[0.0f32; 3]; skirt_bound(2, 2)];
+/// let mut st = vec![[0u32; 3]; skirt_bound(2, 2)];
+/// let (nv, nt) = skirt(2, 2, Scale::default(), &v, &t, &Side::ALL, 2.0, &mut sv, &mut st).unwrap();
+/// assert_eq!((nv, nt), (8, 8)); // four border edges
+/// assert_eq!(sv[0][2], 3.0); // 2 below the edge
+/// assert!(st[..nt].iter().flatten().all(|&i| i < 4 + nv as u32));
+/// // Only the side y = 0: the edge 0 -> 1.
+/// let (nv, _) = skirt(2, 2, Scale::default(), &v, &t, &[Side::YMin], 2.0, &mut sv, &mut st).unwrap();
+/// assert_eq!(nv, 2);
+/// assert_eq!(st[0], [1, 0, 4]);
+/// ```
+#[allow(clippy::too_many_arguments)]
+pub fn skirt(
+    width: u32,
+    height: u32,
+    scale: crate::Scale,
+    vertices: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    sides: &[Side],
+    depth: f32,
+    out_vertices: &mut [[f32; 3]],
+    out_triangles: &mut [[u32; 3]],
+) -> Result<(usize, usize), Error> {
+    RefineGrid::new(width, height)?;
+    if !(depth.is_finite() && depth > 0.0) {
+        return Err(Error::InvalidParameter {
+            name: "skirt depth",
+            value: depth,
+        });
+    }
+    let (dx, dy) = (scale.dx as f64, scale.dy as f64);
+    if !(dx.is_finite() && dx > 0.0 && dy.is_finite() && dy > 0.0) {
+        return Err(Error::InvalidParameter {
+            name: "spacing",
+            value: if dx > 0.0 { scale.dy } else { scale.dx },
+        });
+    }
+    let base = vertices.len();
+    let (xmax, ymax) = (i64::from(width) - 1, i64::from(height) - 1);
+    // The grid line a position is on, per axis (None: not on a grid line).
+    let line = |p: f32, d: f64| {
+        let g = p as f64 / d;
+        let r = libm::round(g);
+        ((g - r).abs() <= 1e-3).then_some(r as i64)
+    };
+    let on_side = |p: &[f32; 3], side: Side| match side {
+        Side::XMin => line(p[0], dx) == Some(0),
+        Side::XMax => line(p[0], dx) == Some(xmax),
+        Side::YMin => line(p[1], dy) == Some(0),
+        Side::YMax => line(p[1], dy) == Some(ymax),
+    };
+    let mut nv = 0usize;
+    for tri in triangles {
+        for (a, b) in [(tri[0], tri[1]), (tri[1], tri[2]), (tri[2], tri[0])] {
+            let get = |i: u32| {
+                vertices.get(i as usize).ok_or(Error::BufferTooSmall {
+                    needed: (i as usize).saturating_add(1),
+                    actual: base,
+                })
+            };
+            let (pa, pb) = (get(a)?, get(b)?);
+            if !sides
+                .iter()
+                .take(4)
+                .any(|&s| on_side(pa, s) && on_side(pb, s))
+            {
+                continue;
+            }
+            let need = nv.saturating_add(2);
+            let (Some(ov), Some(ot)) = (
+                out_vertices.get_mut(nv..need),
+                out_triangles.get_mut(nv..need),
+            ) else {
+                let (v, t) = (out_vertices.len(), out_triangles.len());
+                return Err(Error::BufferTooSmall {
+                    needed: need,
+                    actual: v.min(t),
+                });
+            };
+            let (Ok(la), Ok(lb)) = (
+                u32::try_from(base.saturating_add(nv)),
+                u32::try_from(base.saturating_add(nv).saturating_add(1)),
+            ) else {
+                return Err(Error::SizeOverflow);
+            };
+            if let [va, vb] = ov {
+                *va = [pa[0], pa[1], pa[2] - depth];
+                *vb = [pb[0], pb[1], pb[2] - depth];
+            }
+            // The mesh triangle runs a -> b counter-clockwise seen from above, so the outside is
+            // to the right of a -> b: (b, a, la) and (b, la, lb) face outwards.
+            if let [ta, tb] = ot {
+                *ta = [b, a, la];
+                *tb = [b, la, lb];
+            }
+            nv = need;
+        }
+    }
+    Ok((nv, nv))
+}
