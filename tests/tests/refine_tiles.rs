@@ -5,11 +5,12 @@
 
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    border_len, coverage_len, export_border, hierarchy_len, merge_border, preprocess_pyramid,
-    pyramid_len, renest, scratch_len, skirt, skirt_bound, vertical_error, Criterion,
-    PreprocessOptions, Refiner, Side, View,
+    border_len, coverage_len, export_border, export_border_compact, hierarchy_len, merge_border,
+    merge_border_compact, preprocess_compact, preprocess_pyramid, pyramid_len, renest,
+    renest_compact, scratch_len, skirt, skirt_bound, vertical_error, Criterion, PreprocessOptions,
+    Refiner, Side, View,
 };
-use relief_core::{Camera, Heightfield, Scale};
+use relief_core::{Camera, Heightfield, Scale, Terrain};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
 use std::collections::HashMap;
 use std::path::Path;
@@ -486,5 +487,205 @@ fn skirts_hang_below_every_border_edge_and_face_outwards() {
             &mut st,
         );
         assert!(matches!(e, Err(relief_core::Error::BufferTooSmall { .. })));
+    }
+}
+
+/// A tile in the compact layout: samples and bfloat16 error codes.
+struct CompactTile {
+    x0: u32,
+    y0: u32,
+    w: u32,
+    h: u32,
+    s: Vec<f32>,
+    e: Vec<u16>,
+}
+
+fn cut_compact(samples: &[f32], w: u32, h: u32, size: u32, scale: Scale) -> Vec<Vec<CompactTile>> {
+    cut(samples, w, h, size, scale)
+        .into_iter()
+        .map(|row| {
+            row.into_iter()
+                .map(|t| {
+                    let hf = Heightfield::with_scale(&t.s, t.w, t.h, scale).unwrap();
+                    let mut e = vec![0u16; hierarchy_len(t.w, t.h)];
+                    preprocess_compact(&hf, &mut e).unwrap();
+                    CompactTile {
+                        x0: t.x0,
+                        y0: t.y0,
+                        w: t.w,
+                        h: t.h,
+                        s: t.s,
+                        e,
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The border protocol in the compact layout; returns the number of rounds.
+fn exchange_compact(tiles: &mut [Vec<CompactTile>], scale: Scale) -> usize {
+    let (rows, cols) = (tiles.len(), tiles[0].len());
+    for round in 1..=32 {
+        let mut out: HashMap<(usize, usize, Side), Vec<u16>> = HashMap::new();
+        for (r, row) in tiles.iter().enumerate() {
+            for (c, t) in row.iter().enumerate() {
+                for side in Side::ALL {
+                    if neighbour(rows, cols, r, c, side).is_some() {
+                        let mut be = vec![0; border_len(t.w, t.h, side)];
+                        export_border_compact(t.w, t.h, &t.e, side, &mut be).unwrap();
+                        out.insert((r, c, side), be);
+                    }
+                }
+            }
+        }
+        let mut raised = 0;
+        for (r, row) in tiles.iter_mut().enumerate() {
+            for (c, t) in row.iter_mut().enumerate() {
+                let mut merged = Vec::new();
+                for side in Side::ALL {
+                    if let Some((nr, nc)) = neighbour(rows, cols, r, c, side) {
+                        let be = &out[&(nr, nc, side.opposite())];
+                        let k = merge_border_compact(t.w, t.h, &mut t.e, side, be).unwrap();
+                        if k > 0 {
+                            merged.push(side);
+                        }
+                        raised += k;
+                    }
+                }
+                if !merged.is_empty() {
+                    let hf = Heightfield::with_scale(&t.s, t.w, t.h, scale).unwrap();
+                    renest_compact(&hf, &mut t.e, &merged).unwrap();
+                }
+            }
+        }
+        if raised == 0 {
+            return round;
+        }
+    }
+    panic!("the compact border protocol did not settle in 32 rounds");
+}
+
+/// Meshes every compact tile (`view` given: view-dependent with the tile's grid origin and the
+/// map's height range; else view-independent at `e`) and welds the union.
+fn union_compact(
+    tiles: &[Vec<CompactTile>],
+    scale: Scale,
+    e: f32,
+    view: Option<View>,
+) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let mut at: HashMap<(u32, u32), u32> = HashMap::new();
+    let (mut v, mut t) = (Vec::new(), Vec::new());
+    for tile in tiles.iter().flatten() {
+        let hf = Heightfield::with_scale(&tile.s, tile.w, tile.h, scale).unwrap();
+        let mut te = tile.e.clone();
+        let h = renest_compact(&hf, &mut te, &[]).unwrap();
+        let c = match view {
+            Some(v) => Criterion::View(v.with_grid_origin(tile.x0, tile.y0)),
+            None => Criterion::MaxError(e),
+        };
+        let r = Refiner::new(&h, &hf, c).unwrap();
+        let mut sc = vec![0; scratch_len(tile.w, tile.h)];
+        let n = r.count(&mut sc).unwrap();
+        let mut tv = vec![[0.0; 3]; n.vertices];
+        let mut tt = vec![[0; 3]; n.triangles];
+        r.triangles(&mut sc, &mut tv, &mut tt).unwrap();
+        let map: Vec<u32> = tv
+            .iter()
+            .map(|p| {
+                let gx = (p[0] / scale.dx).round() as u32 + tile.x0;
+                let gy = (p[1] / scale.dy).round() as u32 + tile.y0;
+                *at.entry((gx, gy)).or_insert_with(|| {
+                    v.push([gx as f32 * scale.dx, gy as f32 * scale.dy, p[2]]);
+                    (v.len() - 1) as u32
+                })
+            })
+            .collect();
+        t.extend(tt.iter().map(|tri| tri.map(|i| map[i as usize])));
+    }
+    (v, t)
+}
+
+#[test]
+fn compact_tiles_are_crack_free_and_within_e() {
+    let (s, w, h, scale) = puget();
+    let mut tiles = cut_compact(&s, w, h, 129, scale);
+    let o = CheckOptions::grid(w, h, scale.dx as f64, scale.dy as f64);
+    // Control: without the protocol the compact tiles crack too.
+    let (v, t) = union_compact(&tiles, scale, 5.0, None);
+    assert!(check_mesh(&v, &t, &o).is_err(), "expected cracks");
+    let rounds = exchange_compact(&mut tiles, scale);
+    eprintln!("compact border protocol: {rounds} rounds");
+    assert!(rounds <= 4, "{rounds} rounds");
+    let hf = Heightfield::with_scale(&s, w, h, scale).unwrap();
+    for e in [5.0, 20.0] {
+        let (v, t) = union_compact(&tiles, scale, e, None);
+        check_mesh(&v, &t, &o).unwrap_or_else(|m| panic!("E={e}: {m}"));
+        let mut cov = vec![0; coverage_len(w, h)];
+        let err = vertical_error(&hf, &v, &t, &mut cov).unwrap();
+        assert!(err <= e as f64, "E={e}: measured {err}");
+    }
+    // View-dependent, the map's local height range shared by every tile. Control (checked by
+    // hand when written): without `with_z_range` each tile bounds its vertices by its own height
+    // range and the union cracks at tau 4 (edge (480, 512)-(512, 512)).
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for y in 0..h {
+        for x in 0..w {
+            lo = lo.min(hf.local_z(x, y));
+            hi = hi.max(hf.local_z(x, y));
+        }
+    }
+    let (ex, ey) = ((w - 1) as f32 * scale.dx, (h - 1) as f32 * scale.dy);
+    let eye = Vec3::new(
+        384.0 * scale.dx,
+        256.0 * scale.dy,
+        hi + scale.z_offset + 150.0,
+    );
+    let cam = Camera::new(eye, Vec3::new(0.9 * ex, 0.8 * ey, 0.0), 60.0, 1024, 768).unwrap();
+    for (tau, culling) in [
+        (1.0, false),
+        (2.0, true),
+        (4.0, false),
+        (8.0, false),
+        (16.0, true),
+    ] {
+        let view = View::new(&cam, tau)
+            .unwrap()
+            .with_near_far(1.0, None)
+            .with_culling(culling)
+            .with_lazy_levels(0)
+            .with_z_range(lo, hi);
+        let (v, t) = union_compact(&tiles, scale, 0.0, Some(view));
+        let mut o = o;
+        o.allow_holes = culling;
+        let rep = check_mesh(&v, &t, &o).unwrap_or_else(|m| panic!("tau {tau}: {m}"));
+        eprintln!("compact view-dependent tau {tau}: {} triangles", rep.triangles);
+        assert!(rep.triangles > 200, "tau {tau}: {} triangles", rep.triangles);
+    }
+}
+
+#[test]
+fn compact_random_small_maps_in_tiles() {
+    let mut st = 777u64;
+    let mut rnd = || {
+        st ^= st << 13;
+        st ^= st >> 7;
+        st ^= st << 17;
+        st
+    };
+    for (w, h, size) in [(33u32, 33u32, 9u32), (40, 27, 17), (21, 50, 5)] {
+        let s: Vec<f32> = (0..w * h).map(|_| (rnd() % 1000) as f32 * 0.05).collect();
+        let scale = Scale::default();
+        let mut tiles = cut_compact(&s, w, h, size, scale);
+        exchange_compact(&mut tiles, scale);
+        let hf = Heightfield::with_scale(&s, w, h, scale).unwrap();
+        let o = CheckOptions::grid(w, h, 1.0, 1.0);
+        for e in [0.0, 3.0, 15.0] {
+            let (v, t) = union_compact(&tiles, scale, e, None);
+            check_mesh(&v, &t, &o).unwrap_or_else(|m| panic!("{w}x{h} E={e}: {m}"));
+            let mut cov = vec![0; coverage_len(w, h)];
+            let err = vertical_error(&hf, &v, &t, &mut cov).unwrap();
+            assert!(err <= e as f64, "{w}x{h} E={e}: measured {err}");
+        }
     }
 }

@@ -756,3 +756,33 @@ pub unsafe extern "C" fn pc_refine_skirt(
     )
     .map_or(0, |(a, b)| a + b)
 }
+
+/// The compact tile border protocol (core::refine::tile, bfloat16 error codes).
+#[no_mangle]
+pub unsafe extern "C" fn pc_refine_tile_compact(
+    samples: *const f32,
+    len: usize,
+    w: u32,
+    h: u32,
+    s: &[f32; 4],
+    qerr: *mut u16,
+    n: usize,
+    side_e: *mut u16,
+    side_len: usize,
+) -> f64 {
+    let mut acc = 0.0f64;
+    let Ok(hf) = Heightfield::with_scale(view(samples, len), w, h, scale(s)) else {
+        return -1.0;
+    };
+    for side in Side::ALL {
+        let e = view_mut(qerr, n);
+        acc += relief_core::refine::export_border_compact(w, h, e, side, view_mut(side_e, side_len))
+            .unwrap_or(0) as f64;
+        acc += relief_core::refine::merge_border_compact(w, h, e, side, view(side_e, side_len))
+            .unwrap_or(0) as f64;
+    }
+    if let Ok(hr) = relief_core::refine::renest_compact(&hf, view_mut(qerr, n), &Side::ALL) {
+        acc += hr.error(1, 1).unwrap_or(0.0) as f64;
+    }
+    acc
+}

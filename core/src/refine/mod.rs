@@ -72,7 +72,10 @@ pub use grid::RefineGrid;
 pub use layout::{pack_records, records_len, RecordLayout, VertexRecord};
 pub use scan::{coverage_len, vertical_error, vertical_error_partial, Uncovered};
 pub use select::{Criterion, FrameCounts, MorphVertex, Refiner, StripCounts, View};
-pub use tile::{border_len, export_border, merge_border, renest, skirt, skirt_bound, Side};
+pub use tile::{
+    border_len, export_border, export_border_compact, merge_border, merge_border_compact, renest,
+    renest_compact, skirt, skirt_bound, Side,
+};
 pub use update::{
     crater, preprocess_compact_pyramid, preprocess_pyramid, pyramid_len, update, update_compact,
     Region,

@@ -53,6 +53,7 @@ pub struct View {
     lazy_levels: u32,
     morph_range: Option<f32>,
     origin: (u32, u32),
+    z_range: Option<(f32, f32)>,
 }
 
 impl View {
@@ -82,6 +83,7 @@ impl View {
             lazy_levels: 4,
             morph_range: None,
             origin: (0, 0),
+            z_range: None,
         })
     }
 
@@ -186,6 +188,26 @@ impl View {
     #[must_use]
     pub fn with_grid_origin(mut self, x: u32, y: u32) -> Self {
         self.origin = (x, y);
+        self
+    }
+
+    /// For tiles in the compact layout (level-only bounding circles, which extend over the
+    /// terrain's whole height range): the height range `[lo, hi]` of the whole map in local z
+    /// ([`Terrain::local_z`](crate::Terrain::local_z): `z_scale` applied, no `z_offset`), e.g.
+    /// the minimum and maximum of `local_z` over every tile, so every tile bounds its vertices by
+    /// the same cylinders and decides a shared border vertex alike. The range used is the union
+    /// of this one and the tile's own (a larger range only makes the bound more conservative).
+    /// Default: the tile's. Ignored for sphere layouts.
+    ///
+    /// ```
+    /// # use relief_core::{refine::View, Camera}; use glam::Vec3;
+    /// # let cam = Camera::new(Vec3::ZERO, Vec3::X, 60.0, 4, 4).unwrap();
+    /// let tile = View::new(&cam, 1.0).unwrap().with_grid_origin(128, 0).with_z_range(-10.0, 4000.0);
+    /// # let _ = tile;
+    /// ```
+    #[must_use]
+    pub fn with_z_range(mut self, lo: f32, hi: f32) -> Self {
+        self.z_range = Some((lo, hi));
         self
     }
 }
@@ -1018,6 +1040,17 @@ fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Err
         0b01_1111
     };
     let (z_lo, z_hi) = h.z_range();
+    let (mut z_lo, mut z_hi) = (z_lo as f64, z_hi as f64);
+    if let Some((lo, hi)) = v.z_range {
+        if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+            return Err(Error::InvalidParameter {
+                name: "z_range",
+                value: if lo.is_finite() { hi } else { lo },
+            });
+        }
+        z_lo = z_lo.min(lo as f64);
+        z_hi = z_hi.max(hi as f64);
+    }
     let e = v.camera.eye;
     Ok(ViewData {
         eye: [e.x as f64, e.y as f64, e.z as f64 - off],
@@ -1027,8 +1060,8 @@ fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Err
         planes,
         mask,
         lazy_from: g.levels().saturating_sub(v.lazy_levels),
-        z_lo: z_lo as f64,
-        z_hi: z_hi as f64,
+        z_lo,
+        z_hi,
         morph_range: v.morph_range.map_or(0.0, |r| r as f64),
         ox: i64::from(v.origin.0),
         oy: i64::from(v.origin.1),

@@ -31,6 +31,15 @@
 //! `tests/tests/refine_tiles.rs`). Frustum culling uses the same planes in every tile, so a
 //! border vertex is culled in both tiles or in neither.
 //!
+//! The compact layout ([`super::preprocess_compact`]: bfloat16 errors, level-only bounding
+//! circles) runs the same protocol on the error codes alone ([`export_border_compact`],
+//! [`merge_border_compact`], [`renest_compact`]): the circles depend only on the level and the
+//! spacing, so they already agree. Its view-dependent test also bounds each vertex by the
+//! terrain's height range, so tiles must share the map's range
+//! ([`super::View::with_z_range`]).
+//!
+//! Optional skirts ([`skirt`]) hang below a tile's border edges for users who want them.
+//!
 //! Tiles of `2^k + 1` samples per side keep the hierarchy of each tile aligned with its
 //! neighbours'; the last tiles of a map whose size is not a multiple may be smaller (they embed in
 //! a smaller square, and their square corners are forced into both tiles' meshes by the merge).
@@ -496,4 +505,177 @@ pub fn skirt(
         }
     }
     Ok((nv, nv))
+}
+
+/// [`export_border`] for the compact layout ([`super::preprocess_compact`]: bfloat16 errors,
+/// level-only radii, so only errors travel): copies the error codes of the [`border_len`]
+/// samples along `side` into `out_errors`, in increasing order of the other coordinate.
+///
+/// ```
+/// use relief_core::refine::{export_border_compact, preprocess_compact, Side};
+/// use relief_core::Heightfield;
+/// let hf = Heightfield::new(&[0.0f32, 0.0, 0.0, 0.0, 4.0, 0.0, 0.0, 0.0, 0.0], 3, 3).unwrap();
+/// let mut e = [0u16; 9];
+/// preprocess_compact(&hf, &mut e).unwrap();
+/// let mut be = [0u16; 3];
+/// assert_eq!(export_border_compact(3, 3, &e, Side::YMin, &mut be).unwrap(), 3);
+/// assert_eq!(be[1], e[1]);
+/// ```
+pub fn export_border_compact(
+    width: u32,
+    height: u32,
+    errors: &[u16],
+    side: Side,
+    out_errors: &mut [u16],
+) -> Result<usize, Error> {
+    let (_, n) = check_arrays(
+        width,
+        height,
+        errors.len(),
+        errors.len(),
+        side,
+        out_errors.len(),
+        out_errors.len(),
+    )?;
+    for (i, oe) in out_errors.iter_mut().take(n).enumerate() {
+        let (x, y) = side.point(width, height, i as u32);
+        let k = y as usize * width as usize + x as usize;
+        *oe = errors.get(k).copied().unwrap_or(BF16_INFINITY);
+    }
+    Ok(n)
+}
+
+/// bfloat16 `+inf` (errors are never negative or NaN, so codes order like their values).
+const BF16_INFINITY: u16 = 0x7F80;
+
+/// [`merge_border`] for the compact layout: raises the error codes along `side` to the
+/// neighbour's (what it exported for `side.opposite()`), element-wise maximum (non-negative
+/// bfloat16 codes order like their values). Returns how many were raised; call
+/// [`renest_compact`] afterwards.
+///
+/// ```
+/// use relief_core::refine::{merge_border_compact, Side};
+/// let mut e = [0u16; 4];
+/// assert_eq!(merge_border_compact(2, 2, &mut e, Side::XMax, &[0x4000, 0]).unwrap(), 1);
+/// assert_eq!(e[1], 0x4000); // 2.0
+/// ```
+pub fn merge_border_compact(
+    width: u32,
+    height: u32,
+    errors: &mut [u16],
+    side: Side,
+    neighbour_errors: &[u16],
+) -> Result<usize, Error> {
+    let (_, n) = check_arrays(
+        width,
+        height,
+        errors.len(),
+        errors.len(),
+        side,
+        neighbour_errors.len(),
+        neighbour_errors.len(),
+    )?;
+    let mut raised = 0usize;
+    for (i, &ne) in neighbour_errors.iter().take(n).enumerate() {
+        let (x, y) = side.point(width, height, i as u32);
+        let k = y as usize * width as usize + x as usize;
+        if let Some(e) = errors.get_mut(k) {
+            // A NaN code (never written by preprocessing) counts as infinite: always refined.
+            let ne = if ne & 0x7FFF > BF16_INFINITY {
+                BF16_INFINITY
+            } else {
+                ne & 0x7FFF
+            };
+            if ne > *e {
+                *e = ne;
+                raised += 1;
+            }
+        }
+    }
+    Ok(raised)
+}
+
+/// [`renest`] for the compact layout: bottom-up over the vertices within `3h` samples of the
+/// merged `sides` at each half-size `h`, each vertex's error code becomes at least its
+/// children's (the level-only radii nest by construction). Returns the hierarchy.
+///
+/// ```
+/// use relief_core::refine::{merge_border_compact, preprocess_compact, renest_compact, Side};
+/// use relief_core::Heightfield;
+/// let hf = Heightfield::new(&[0.0f32; 25], 5, 5).unwrap();
+/// let mut e = [0u16; 25];
+/// preprocess_compact(&hf, &mut e).unwrap();
+/// merge_border_compact(5, 5, &mut e, Side::XMax, &[0, 0x4040, 0, 0, 0]).unwrap(); // 3.0
+/// let h = renest_compact(&hf, &mut e, &[Side::XMax]).unwrap();
+/// assert_eq!(h.error(3, 1), Some(3.0)); // its parent
+/// assert_eq!(h.error(2, 2), Some(3.0)); // and the root
+/// ```
+pub fn renest_compact<'a, T: Terrain>(
+    terrain: &T,
+    errors: &'a mut [u16],
+    sides: &[Side],
+) -> Result<Hierarchy<'a>, Error> {
+    let g = preprocess::check(terrain, errors.len())?;
+    let (w, hgt) = (g.width() as i64, g.height() as i64);
+    let n = g.side() as i64;
+    let mut h = 1i64;
+    while h < n {
+        for (x0, y0, d) in passes(h) {
+            for &side in sides.iter().take(4) {
+                let (xl, xh, yl, yh) = match side {
+                    Side::XMin => (0, d, 0, hgt - 1),
+                    Side::XMax => (w - 1 - d, w - 1, 0, hgt - 1),
+                    Side::YMin => (0, w - 1, 0, d),
+                    Side::YMax => (0, w - 1, hgt - 1 - d, hgt - 1),
+                };
+                nest_codes(&g, h, (x0, y0), (xl, xh, yl, yh), errors);
+            }
+        }
+        h *= 2;
+    }
+    Ok(preprocess::finish(
+        terrain,
+        g,
+        ErrorStore::Bf16(errors),
+        None,
+    ))
+}
+
+/// Re-nests the error codes of one pass in a rectangle.
+fn nest_codes(
+    g: &RefineGrid,
+    h: i64,
+    (x0, y0): (i64, i64),
+    (xl, xh, yl, yh): (i64, i64, i64, i64),
+    errors: &mut [u16],
+) {
+    let (wi, hi) = (g.width() as i64, g.height() as i64);
+    let step = 2 * h;
+    let first = |o: i64, lo: i64| {
+        let lo = lo.max(0);
+        if lo <= o {
+            o
+        } else {
+            o + step * ((lo - o + step - 1) / step.max(1))
+        }
+    };
+    let w = g.width() as usize;
+    let idx = |x: i64, y: i64| y as usize * w + x as usize;
+    let mut y = first(y0, yl);
+    while y <= yh.min(hi - 1) {
+        let mut x = first(x0, xl);
+        while x <= xh.min(wi - 1) {
+            let mut e = errors.get(idx(x, y)).copied().unwrap_or(0);
+            for &(cx, cy) in g.children(x as u32, y as u32).iter().flatten() {
+                if g.in_domain(cx, cy) {
+                    e = e.max(errors.get(idx(cx, cy)).copied().unwrap_or(0));
+                }
+            }
+            if let Some(s) = errors.get_mut(idx(x, y)) {
+                *s = e;
+            }
+            x += step;
+        }
+        y += step;
+    }
 }
