@@ -244,3 +244,83 @@ fn tiles_union_is_crack_free_and_within_e() {
     ]);
     assert_eq!(o.status.code(), Some(2));
 }
+
+#[test]
+fn view_dependent_tiles_in_both_layouts_weld_crack_free() {
+    let dir = tempfile::tempdir().unwrap();
+    let (w, h) = (41u32, 30u32);
+    let dem = write(&dir.path().join("dem.f32"), &heights(w, h));
+    let (ws, hs) = (w.to_string(), h.to_string());
+    let out = dir.path().join("vd");
+    let os = out.to_str().unwrap();
+    for layout in ["full", "compact"] {
+        for cull in [false, true] {
+            // The eye above the tiled area, near the corner shared by four tiles.
+            let mut args = vec![
+                "mesh",
+                "--dem",
+                &dem,
+                "--format",
+                "raw-f32",
+                "--width",
+                &ws,
+                "--height",
+                &hs,
+                "--dx",
+                "2",
+                "--dy",
+                "3",
+                "--eye",
+                "33,49,12",
+                "--target",
+                "70,80,0",
+                "--size",
+                "640x480",
+                "--pixel-error",
+                "1",
+                "--lazy-levels",
+                "0",
+                "--layout",
+                layout,
+                "--tile-size",
+                "9",
+                "--out-dir",
+                os,
+                "--json",
+            ];
+            if !cull {
+                args.push("--no-cull");
+            }
+            let v = json(&relief(&args));
+            assert_eq!(v["mode"], "view-dependent");
+            assert_eq!(v["layout"], layout);
+            let mut at: HashMap<(i64, i64), u32> = HashMap::new();
+            let (mut uv, mut ut) = (Vec::new(), Vec::new());
+            for t in v["tiles"].as_array().unwrap() {
+                let (c, r) = (t["col"].as_u64().unwrap(), t["row"].as_u64().unwrap());
+                let (tv, tt) = read_obj(&out.join(format!("tile_{c}_{r}.obj")));
+                for tri in tt {
+                    ut.push(tri.map(|i| {
+                        let q = tv[i as usize];
+                        let key = ((q[0] / 2.0).round() as i64, (q[1] / 3.0).round() as i64);
+                        *at.entry(key).or_insert_with(|| {
+                            uv.push(q);
+                            (uv.len() - 1) as u32
+                        })
+                    }));
+                }
+            }
+            assert_eq!(ut.len() as u64, v["union_triangles"].as_u64().unwrap());
+            let mut o = CheckOptions::grid(w, h, 2.0, 3.0);
+            o.allow_holes = cull;
+            let rep =
+                check_mesh(&uv, &ut, &o).unwrap_or_else(|m| panic!("{layout} cull {cull}: {m}"));
+            let full_area = 40.0 * 2.0 * 29.0 * 3.0;
+            if cull {
+                assert!(rep.area < full_area, "{layout}: nothing culled");
+            } else {
+                assert!((rep.area - full_area).abs() < 1e-6, "{layout}");
+            }
+        }
+    }
+}

@@ -84,9 +84,9 @@ pub struct MeshArgs {
     #[arg(long, value_name = "PATH", required_unless_present = "tile_size")]
     out: Option<PathBuf>,
     /// Tiles: mesh the DEM in tiles of N = 2^k + 1 samples sharing their borders, each
-    /// preprocessed and meshed on its own, crack-free after the border protocol (view-independent,
-    /// full layout); writes DIR/tile_<col>_<row>.obj.
-    #[arg(long, value_name = "N", requires_all = ["out_dir", "max_error"], conflicts_with_all = ["eye", "edit", "out"])]
+    /// preprocessed and meshed on its own, crack-free after the border protocol (--max-error or
+    /// view-dependent with --eye ...; full or compact layout); writes DIR/tile_<col>_<row>.obj.
+    #[arg(long, value_name = "N", requires_all = ["out_dir"], conflicts_with_all = ["edit", "out"])]
     tile_size: Option<u32>,
     /// Tiles: output folder.
     #[arg(long, value_name = "DIR", requires = "tile_size")]
@@ -111,9 +111,32 @@ pub struct MeshArgs {
 pub fn run(a: &MeshArgs) -> CliResult {
     if let (Some(size), Some(dir)) = (a.tile_size, &a.out_dir) {
         let (dem, _) = a.dem.load()?;
+        let view = match (a.max_error, a.eye, a.target, a.size, a.pixel_error) {
+            (Some(_), None, ..) => None,
+            (None, Some(eye), Some(target), Some((iw, ih)), Some(tau)) => {
+                let cam = Camera::new(eye, target, a.fov, iw, ih)?;
+                Some(
+                    View::new(&cam, tau)?
+                        .with_culling(!a.no_cull)
+                        .with_lazy_levels(a.lazy_levels),
+                )
+            }
+            _ => {
+                return Err(CliError(
+                    "relief mesh --tile-size needs --max-error E, or --eye/--target/--size/--pixel-error".into(),
+                ))
+            }
+        };
+        if !matches!(a.layout, Layout::Full | Layout::Compact) {
+            return Err(CliError(
+                "relief mesh --tile-size supports --layout full or compact".into(),
+            ));
+        }
         let o = super::mesh_tiles::TileOptions {
             tile_size: size,
             max_error: a.max_error.unwrap_or(0.0),
+            view,
+            compact: a.layout == Layout::Compact,
             out_dir: dir,
             skirt: a.skirt,
             json: a.json,

@@ -6,18 +6,19 @@
 
 use crate::{print_out, CliError, CliResult};
 use relief_core::refine::{
-    border_len, coverage_len, export_border, hierarchy_len, merge_border, preprocess_pyramid,
-    pyramid_len, renest, scratch_len, skirt, skirt_bound, vertical_error_partial, Criterion,
-    PreprocessOptions, Refiner, Side,
+    border_len, coverage_len, export_border, export_border_compact, hierarchy_len, merge_border,
+    merge_border_compact, preprocess_compact_pyramid, preprocess_pyramid, pyramid_len, renest,
+    renest_compact, scratch_len, skirt, skirt_bound, vertical_error_partial, Criterion,
+    PreprocessOptions, Refiner, Side, View,
 };
-use relief_core::{Heightfield, Scale};
+use relief_core::{Heightfield, Scale, Terrain};
 use relief_io::Dem;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// Errors and radii one tile exported for one side.
-type Exported = HashMap<(usize, usize, Side), (Vec<f32>, Vec<f32>)>;
+/// Errors and radii (full layout) or error codes (compact) one tile exported for one side.
+type Exported = HashMap<(usize, usize, Side), (Vec<f32>, Vec<f32>, Vec<u16>)>;
 /// One tile's OBJ: path, vertices, triangles.
 type TileObj = (PathBuf, Vec<[f32; 3]>, Vec<[u32; 3]>);
 
@@ -32,14 +33,21 @@ struct Tile {
     samples: Vec<f32>,
     errors: Vec<f32>,
     radii: Vec<f32>,
+    /// Compact layout: bfloat16 error codes (then `errors` and `radii` are empty).
+    codes: Vec<u16>,
 }
 
 /// Options of a tiled run.
 pub struct TileOptions<'p> {
     /// Samples per tile side (`2^k + 1`).
     pub tile_size: u32,
-    /// Largest vertical error.
+    /// Largest vertical error (view-independent).
     pub max_error: f32,
+    /// View-dependent refinement for this camera, in the map's world coordinates (each tile gets
+    /// its grid origin and the map's height range), instead of `max_error`.
+    pub view: Option<View>,
+    /// Compact layout (bfloat16 errors, level-only radii) instead of the full one.
+    pub compact: bool,
     /// Output folder.
     pub out_dir: &'p Path,
     /// Skirt depth (world z units) or none.
@@ -65,7 +73,7 @@ fn neighbour(rows: usize, cols: usize, r: usize, c: usize, side: Side) -> Option
 }
 
 /// Runs the border protocol on the tiles (row-major, `cols` per row); returns the rounds.
-fn exchange(tiles: &mut [Tile], cols: usize, scale: Scale) -> CliResult<usize> {
+fn exchange(tiles: &mut [Tile], cols: usize, scale: Scale, compact: bool) -> CliResult<usize> {
     let rows = tiles.len() / cols.max(1);
     for round in 1..=64 {
         let mut out: Exported = HashMap::new();
@@ -73,9 +81,15 @@ fn exchange(tiles: &mut [Tile], cols: usize, scale: Scale) -> CliResult<usize> {
             for side in Side::ALL {
                 if neighbour(rows, cols, t.row, t.col, side).is_some() {
                     let n = border_len(t.w, t.h, side);
-                    let (mut be, mut br) = (vec![0.0; n], vec![0.0; n]);
-                    export_border(t.w, t.h, &t.errors, &t.radii, side, &mut be, &mut br)?;
-                    out.insert((t.row, t.col, side), (be, br));
+                    if compact {
+                        let mut bc = vec![0u16; n];
+                        export_border_compact(t.w, t.h, &t.codes, side, &mut bc)?;
+                        out.insert((t.row, t.col, side), (Vec::new(), Vec::new(), bc));
+                    } else {
+                        let (mut be, mut br) = (vec![0.0; n], vec![0.0; n]);
+                        export_border(t.w, t.h, &t.errors, &t.radii, side, &mut be, &mut br)?;
+                        out.insert((t.row, t.col, side), (be, br, Vec::new()));
+                    }
                 }
             }
         }
@@ -84,10 +98,14 @@ fn exchange(tiles: &mut [Tile], cols: usize, scale: Scale) -> CliResult<usize> {
             let mut merged = Vec::new();
             for side in Side::ALL {
                 if let Some((nr, nc)) = neighbour(rows, cols, t.row, t.col, side) {
-                    let Some((be, br)) = out.get(&(nr, nc, side.opposite())) else {
+                    let Some((be, br, bc)) = out.get(&(nr, nc, side.opposite())) else {
                         continue;
                     };
-                    let k = merge_border(t.w, t.h, &mut t.errors, &mut t.radii, side, be, br)?;
+                    let k = if compact {
+                        merge_border_compact(t.w, t.h, &mut t.codes, side, bc)?
+                    } else {
+                        merge_border(t.w, t.h, &mut t.errors, &mut t.radii, side, be, br)?
+                    };
                     if k > 0 {
                         merged.push(side);
                         raised += k;
@@ -96,13 +114,17 @@ fn exchange(tiles: &mut [Tile], cols: usize, scale: Scale) -> CliResult<usize> {
             }
             if !merged.is_empty() {
                 let hf = Heightfield::with_scale(&t.samples, t.w, t.h, scale)?;
-                renest(
-                    &hf,
-                    &mut t.errors,
-                    &mut t.radii,
-                    &merged,
-                    PreprocessOptions::default(),
-                )?;
+                if compact {
+                    renest_compact(&hf, &mut t.codes, &merged)?;
+                } else {
+                    renest(
+                        &hf,
+                        &mut t.errors,
+                        &mut t.radii,
+                        &merged,
+                        PreprocessOptions::default(),
+                    )?;
+                }
             }
         }
         if raised == 0 {
@@ -170,16 +192,22 @@ pub fn run(dem: &Dem, o: &TileOptions<'_>) -> CliResult {
                 samples.extend_from_slice(&dem.samples[i..i + tw as usize]);
             }
             let n = hierarchy_len(tw, th);
-            let (mut errors, mut radii) = (vec![0.0f32; n], vec![0.0f32; n]);
+            let nf = if o.compact { 0 } else { n };
+            let (mut errors, mut radii) = (vec![0.0f32; nf], vec![0.0f32; nf]);
+            let mut codes = vec![0u16; n - nf];
             let mut pyr = vec![0.0f32; pyramid_len(tw, th)];
             let hf = Heightfield::with_scale(&samples, tw, th, scale)?;
-            preprocess_pyramid(
-                &hf,
-                &mut errors,
-                &mut radii,
-                &mut pyr,
-                PreprocessOptions::default(),
-            )?;
+            if o.compact {
+                preprocess_compact_pyramid(&hf, &mut codes, &mut pyr)?;
+            } else {
+                preprocess_pyramid(
+                    &hf,
+                    &mut errors,
+                    &mut radii,
+                    &mut pyr,
+                    PreprocessOptions::default(),
+                )?;
+            }
             tiles.push(Tile {
                 col,
                 row,
@@ -190,12 +218,25 @@ pub fn run(dem: &Dem, o: &TileOptions<'_>) -> CliResult {
                 samples,
                 errors,
                 radii,
+                codes,
             });
         }
     }
     let preprocess_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t1 = Instant::now();
-    let rounds = exchange(&mut tiles, cols, scale)?;
+    let rounds = exchange(&mut tiles, cols, scale, o.compact)?;
+    // The map's height range (local z), shared by every tile's view-dependent test.
+    let hf_map = dem.heightfield()?;
+    let (mut z_lo, mut z_hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    if o.view.is_some() {
+        for y in 0..h {
+            for x in 0..w {
+                let z = hf_map.local_z(x, y);
+                z_lo = z_lo.min(z);
+                z_hi = z_hi.max(z);
+            }
+        }
+    }
     let exchange_ms = t1.elapsed().as_secs_f64() * 1e3;
     // Mesh each tile; keep the welded union for the error scan.
     let t2 = Instant::now();
@@ -205,14 +246,22 @@ pub fn run(dem: &Dem, o: &TileOptions<'_>) -> CliResult {
     let mut files: Vec<TileObj> = Vec::new();
     for t in &mut tiles {
         let hf = Heightfield::with_scale(&t.samples, t.w, t.h, scale)?;
-        let hier = renest(
-            &hf,
-            &mut t.errors,
-            &mut t.radii,
-            &[],
-            PreprocessOptions::default(),
-        )?;
-        let r = Refiner::new(&hier, &hf, Criterion::MaxError(o.max_error))?;
+        let hier = if o.compact {
+            renest_compact(&hf, &mut t.codes, &[])?
+        } else {
+            renest(
+                &hf,
+                &mut t.errors,
+                &mut t.radii,
+                &[],
+                PreprocessOptions::default(),
+            )?
+        };
+        let criterion = match o.view {
+            Some(v) => Criterion::View(v.with_grid_origin(t.x0, t.y0).with_z_range(z_lo, z_hi)),
+            None => Criterion::MaxError(o.max_error),
+        };
+        let r = Refiner::new(&hier, &hf, criterion)?;
         let mut sc = vec![0u64; scratch_len(t.w, t.h)];
         let c = r.count(&mut sc)?;
         let mut v = vec![[0.0f32; 3]; c.vertices];
@@ -254,13 +303,14 @@ pub fn run(dem: &Dem, o: &TileOptions<'_>) -> CliResult {
         files.push((path, v, tr));
     }
     let refine_ms = t2.elapsed().as_secs_f64() * 1e3;
-    let hf = dem.heightfield()?;
     let mut cov = vec![0u64; coverage_len(w, h)];
-    let (max_err, uncovered) = vertical_error_partial(&hf, &uv, &ut, &mut cov)?;
-    if let Some(u) = uncovered {
-        return Err(CliError(format!(
-            "internal error: the union of the tiles leaves sample {u:?} uncovered"
-        )));
+    let (max_err, uncovered) = vertical_error_partial(&hf_map, &uv, &ut, &mut cov)?;
+    if o.view.is_none() {
+        if let Some(u) = uncovered {
+            return Err(CliError(format!(
+                "internal error: the union of the tiles leaves sample {u:?} uncovered"
+            )));
+        }
     }
     for (path, v, tr) in &files {
         relief_io::write_obj(path, v, tr)?;
@@ -271,7 +321,8 @@ pub fn run(dem: &Dem, o: &TileOptions<'_>) -> CliResult {
         let v = serde_json::json!({
             "width": w,
             "height": h,
-            "mode": "view-independent",
+            "mode": if o.view.is_some() { "view-dependent" } else { "view-independent" },
+            "layout": if o.compact { "compact" } else { "full" },
             "tile_size": size,
             "tiles_x": cols,
             "tiles_y": ys.len(),
@@ -291,7 +342,7 @@ pub fn run(dem: &Dem, o: &TileOptions<'_>) -> CliResult {
         print_out(&format!("{v}\n"))
     } else {
         print_out(&format!(
-            "{dir}\n  tiles       {cols} x {rows} of {size} samples ({total_t} triangles, {total_v} vertices{skirt})\n  union       {ut} triangles, max error {max_err:.4} (measured over every sample)\n  borders     {rounds} exchange rounds, {exchange_ms:.1} ms\n  preprocess  {preprocess_ms:.1} ms\n  refine      {refine_ms:.1} ms\n",
+            "{dir}\n  tiles       {cols} x {rows} of {size} samples ({total_t} triangles, {total_v} vertices{skirt})\n  union       {ut} triangles, max error {max_err:.4} (measured over the samples the union covers)\n  borders     {rounds} exchange rounds, {exchange_ms:.1} ms\n  preprocess  {preprocess_ms:.1} ms\n  refine      {refine_ms:.1} ms\n",
             dir = o.out_dir.display(),
             rows = ys.len(),
             ut = ut.len(),
