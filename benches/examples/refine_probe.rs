@@ -3,7 +3,7 @@
 //! extraction at E = 5 and 50 m and view-dependent refinement with culling at 0.5, 1 and 4 px,
 //! every layout.
 //!
-//! `cargo run --release -p relief-benches --example refine_probe`
+//! `cargo run --release -p relief-benches --example refine_probe` (`RUNS=n`, `FILTER="vd tau=1"`)
 
 use relief_core::glam::Vec3;
 use relief_core::refine::{
@@ -20,6 +20,8 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(30);
+    // Optional substring filter on "<case> <layout>", e.g. FILTER="vd tau=1 full".
+    let filter = std::env::var("FILTER").unwrap_or_default();
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
     let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
     dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
@@ -62,6 +64,9 @@ fn main() {
             ("rec-lin", &lin),
             ("rec-il", &il),
         ] {
+            if !format!("{name} {lname}").contains(&filter) {
+                continue;
+            }
             let r = Refiner::new(hier, &hf, *crit).unwrap();
             let mut best = f64::INFINITY;
             let mut c = Default::default();

@@ -296,6 +296,11 @@ pub(crate) struct ViewData {
     /// Grid origin of the tile in the map ([`View::with_grid_origin`]).
     ox: i64,
     oy: i64,
+    /// Grid spacing in f64 (per-frame constants of the decision).
+    sx: f64,
+    sy: f64,
+    /// Whether the hierarchy has per-vertex spheres (else level radii and the z range).
+    spheres: bool,
 }
 
 /// What a vertex's test says.
@@ -913,31 +918,32 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 (e, z, self.h.radius_at(i, level) as f64)
             }
         };
-        let Some(v) = self.view else {
+        let Some(v) = self.view.as_ref() else {
             return self.decide_vi(e, planes);
         };
+        // The vertex's position from its grid index, with per-frame constants (the map's grid
+        // index in f64 times the spacing: bit-identical across tiles, see `with_grid_origin`).
+        let px = (m.0 + v.ox) as f64 * v.sx;
+        let py = (m.1 + v.oy) as f64 * v.sy;
         let mut planes = planes;
         if planes != 0 && level < v.lazy_from {
-            match self.cull(&v, m, z, r, planes) {
+            match cull_at(v, px, py, z, r, planes) {
                 Some(p) => planes = p,
                 None => return Decision::Cull,
             }
         }
         let ef = e as f64;
-        let active = if self.h.spheres() {
+        let active = if v.spheres {
             // SOAR's form without a square root: e kappa / tau + r > |eye - p|.
             if v.tau > 0.0 {
-                let s = self.h.scale();
-                let dx = v.eye[0] - (m.0 + v.ox) as f64 * s.dx as f64;
-                let dy = v.eye[1] - (m.1 + v.oy) as f64 * s.dy as f64;
-                let dz = v.eye[2] - z;
+                let (dx, dy, dz) = (v.eye[0] - px, v.eye[1] - py, v.eye[2] - z);
                 let reach = ef * v.kappa_over_tau + r;
                 ef > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz
             } else {
                 ef > 0.0
             }
         } else {
-            ef * v.kappa > v.tau * self.distance(&v, [m.0, m.1], z, r)
+            ef * v.kappa > v.tau * self.distance(v, [m.0, m.1], z, r)
         };
         if active {
             Decision::Split(planes)
@@ -973,39 +979,39 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             libm::sqrt(dh * dh + dz * dz)
         }
     }
+}
 
-    /// Tests the volume against the active planes: `None` if outside one, else the planes the
-    /// volume still crosses.
-    #[inline(always)]
-    fn cull(&self, v: &ViewData, m: (i64, i64), z: f64, r: f64, planes: u8) -> Option<u8> {
-        let s = self.h.scale();
-        let (px, py) = (
-            (m.0 + v.ox) as f64 * s.dx as f64,
-            (m.1 + v.oy) as f64 * s.dy as f64,
-        );
-        let mut out = planes;
-        for (k, p) in v.planes.iter().enumerate() {
-            if planes & (1 << k) == 0 {
-                continue;
-            }
-            let (lo, hi) = if self.h.spheres() {
-                let c = p[0] * px + p[1] * py + p[2] * z + p[3];
-                (c - r, c + r)
-            } else {
-                let hyp = libm::sqrt(p[0] * p[0] + p[1] * p[1]);
-                let c = p[0] * px + p[1] * py + p[3];
-                let (za, zb) = (p[2] * v.z_lo, p[2] * v.z_hi);
-                (c - r * hyp + za.min(zb), c + r * hyp + za.max(zb))
-            };
-            if hi < 0.0 {
-                return None;
-            }
-            if lo > 0.0 {
-                out &= !(1 << k);
-            }
+/// Tests the volume at `(px, py, z)` (local) with radius `r` against the active planes of
+/// `planes` only (set bits, in plane order): `None` if outside one, else the planes the volume
+/// still crosses.
+#[inline(always)]
+fn cull_at(v: &ViewData, px: f64, py: f64, z: f64, r: f64, planes: u8) -> Option<u8> {
+    let mut out = planes;
+    let mut rest = planes;
+    while rest != 0 {
+        // At most 6 iterations: one per set bit of a 6-plane mask.
+        let k = rest.trailing_zeros();
+        rest &= rest - 1;
+        let Some(p) = v.planes.get(k as usize) else {
+            break;
+        };
+        let (lo, hi) = if v.spheres {
+            let c = p[0] * px + p[1] * py + p[2] * z + p[3];
+            (c - r, c + r)
+        } else {
+            let hyp = libm::sqrt(p[0] * p[0] + p[1] * p[1]);
+            let c = p[0] * px + p[1] * py + p[3];
+            let (za, zb) = (p[2] * v.z_lo, p[2] * v.z_hi);
+            (c - r * hyp + za.min(zb), c + r * hyp + za.max(zb))
+        };
+        if hi < 0.0 {
+            return None;
         }
-        Some(out)
+        if lo > 0.0 {
+            out &= !(1 << k);
+        }
     }
+    Some(out)
 }
 
 fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Error> {
@@ -1065,6 +1071,9 @@ fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Err
         morph_range: v.morph_range.map_or(0.0, |r| r as f64),
         ox: i64::from(v.origin.0),
         oy: i64::from(v.origin.1),
+        sx: s.dx as f64,
+        sy: s.dy as f64,
+        spheres: h.spheres(),
     })
 }
 
