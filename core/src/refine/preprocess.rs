@@ -270,8 +270,9 @@ pub(crate) fn shape(
 
 /// Computes and stores the nested error (and radius) of vertex `(x, y)` (half-size `h`, pass
 /// `pass` as in [`shape`]) from its diamond and its children's stored values (which must be
-/// final). Finest-level vertices (`h = 1`) whose 3 x 3 neighbourhood lies in the domain take
-/// [`vertex_finest`], the others [`vertex_general`]; both store bit-identical values (tested).
+/// final). Vertices of the two finest levels (`h` = 1 or 2) whose `(2h + 1)^2` neighbourhood
+/// lies in the domain take [`vertex_near`], the others [`vertex_general`]; both store
+/// bit-identical values (tested).
 #[inline]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn vertex<T: Terrain, E: ErrorSink + ?Sized>(
@@ -283,8 +284,12 @@ pub(crate) fn vertex<T: Terrain, E: ErrorSink + ?Sized>(
     contain_corners: bool,
     pruning: Option<Pruning<'_>>,
 ) {
-    if FAST_FINEST.get() && h == 1 && x >= 1 && y >= 1 && g.in_domain(x + 1, y + 1) {
-        vertex_finest(t, g, (x, y, pass), errors, radii, contain_corners);
+    if FAST_FINEST.get() && h <= 2 && x >= h && y >= h && g.in_domain(x + h, y + h) {
+        if h == 1 {
+            vertex_near::<1, 9, T, E>(t, g, (x, y, pass), errors, radii, contain_corners);
+        } else {
+            vertex_near::<2, 25, T, E>(t, g, (x, y, pass), errors, radii, contain_corners);
+        }
     } else {
         vertex_general(
             t,
@@ -298,7 +303,7 @@ pub(crate) fn vertex<T: Terrain, E: ErrorSink + ?Sized>(
     }
 }
 
-/// Whether [`vertex`] may take [`vertex_finest`] (always outside tests; tests switch it off to
+/// Whether [`vertex`] may take [`vertex_near`] (always outside tests; tests switch it off to
 /// compare against [`vertex_general`], the reference).
 #[cfg(not(test))]
 struct FastFinest;
@@ -317,18 +322,22 @@ std::thread_local! {
     pub(crate) static FAST_FINEST: core::cell::Cell<bool> = const { core::cell::Cell::new(true) };
 }
 
-/// L-infinity error of a triangle of area 1 or 2 given in coordinates relative to its vertex
-/// (each in `-1..=1`), heights from the 3 x 3 neighbourhood `nb` (row-major, `nb[4]` the
-/// vertex): [`triangle_error`]'s closed form with the same plane formula (a plane depends only on
-/// coordinate differences, so relative coordinates give the same values), which constant
-/// coordinates let the compiler fold.
+/// Height at `q` (relative to the vertex, each coordinate in `-H..=H`) from the row-major
+/// `(2H + 1)^2` neighbourhood `nb`.
 #[inline(always)]
-fn small_error(nb: &[f64; 9], p: [(i64, i64); 3]) -> f64 {
-    let at = |q: (i64, i64)| {
-        nb.get(((q.1 + 1) * 3 + q.0 + 1) as usize)
-            .copied()
-            .unwrap_or(0.0)
-    };
+fn nb_at<const H: i64, const S: usize>(nb: &[f64; S], q: (i64, i64)) -> f64 {
+    nb.get(((q.1 + H) * (2 * H + 1) + q.0 + H) as usize)
+        .copied()
+        .unwrap_or(0.0)
+}
+
+/// L-infinity error of a triangle of area 1 or 2 given in coordinates relative to its vertex
+/// (each in `-1..=1`), heights from the 3 x 3 neighbourhood `nb`: [`triangle_error`]'s closed
+/// form with the same plane formula (a plane depends only on coordinate differences, so relative
+/// coordinates give the same values), which constant coordinates let the compiler fold.
+#[inline(always)]
+fn small_error<const S: usize>(nb: &[f64; S], p: [(i64, i64); 3]) -> f64 {
+    let at = |q: (i64, i64)| nb_at::<1, S>(nb, q);
     let z = [at(p[0]), at(p[1]), at(p[2])];
     let Some(plane) = Plane::new([
         (p[0].0, p[0].1, z[0]),
@@ -349,12 +358,49 @@ fn small_error(nb: &[f64; 9], p: [(i64, i64); 3]) -> f64 {
     e
 }
 
-/// [`vertex_general`] for a vertex of half-size 1 at `(x, y)` whose 3 x 3 neighbourhood lies in
-/// the domain (so every triangle is inside and every corner and child in the domain): the nine
-/// heights are read once, the diamond's two planes are built in relative coordinates, and the
-/// arithmetic is otherwise the same, in the same order.
+/// L-infinity error of a triangle given in coordinates relative to its vertex (each in
+/// `-H..=H`), heights from the `(2H + 1)^2` neighbourhood `nb`: the maximum of the rasterising
+/// path's very terms `|h - plane|` over the same samples (those of the closed triangle, tested
+/// against the rasteriser by `raster`'s tests), in another order (a maximum does not depend on
+/// it). With constant coordinates the loops unroll and the inside tests fold.
 #[inline(always)]
-fn vertex_finest<T: Terrain, E: ErrorSink + ?Sized>(
+fn box_error<const H: i64, const S: usize>(nb: &[f64; S], p: [(i64, i64); 3]) -> f64 {
+    let z = [
+        nb_at::<H, S>(nb, p[0]),
+        nb_at::<H, S>(nb, p[1]),
+        nb_at::<H, S>(nb, p[2]),
+    ];
+    let Some(plane) = Plane::new([
+        (p[0].0, p[0].1, z[0]),
+        (p[1].0, p[1].1, z[1]),
+        (p[2].0, p[2].1, z[2]),
+    ]) else {
+        return 0.0;
+    };
+    let sg = super::raster::orient(p[0], p[1], p[2]).signum();
+    let mut e = 0.0f64;
+    for dy in -H..=H {
+        for dx in -H..=H {
+            let q = (dx, dy);
+            let o = super::raster::orient;
+            if o(p[0], p[1], q) * sg >= 0
+                && o(p[1], p[2], q) * sg >= 0
+                && o(p[2], p[0], q) * sg >= 0
+            {
+                let d = (nb_at::<H, S>(nb, q) - plane.at(dx, dy)).abs();
+                e = if d > e { d } else { e };
+            }
+        }
+    }
+    e
+}
+
+/// [`vertex_general`] for a vertex of half-size `H` (1 or 2; `S = (2H + 1)^2`) at `(x, y)`
+/// whose `(2H + 1)^2` neighbourhood lies in the domain (so every triangle is inside and every
+/// corner and child in the domain): the heights are read once, the diamond's two planes are
+/// built in relative coordinates, and the arithmetic is otherwise the same, in the same order.
+#[inline(always)]
+fn vertex_near<const H: i64, const S: usize, T: Terrain, E: ErrorSink + ?Sized>(
     t: &T,
     g: &RefineGrid,
     (x, y, pass): (i64, i64, usize),
@@ -364,31 +410,34 @@ fn vertex_finest<T: Terrain, E: ErrorSink + ?Sized>(
 ) {
     let w = g.width() as usize;
     let idx = |x: i64, y: i64| y as usize * w + x as usize;
-    let mut nb = [0.0f64; 9];
+    let mut nb = [0.0f64; S];
+    let side = (2 * H + 1) as usize;
     for (k, v) in nb.iter_mut().enumerate() {
-        let (dx, dy) = ((k % 3) as i64 - 1, (k / 3) as i64 - 1);
+        let (dx, dy) = ((k % side) as i64 - H, (k / side) as i64 - H);
         *v = local(t, x + dx, y + dy);
     }
     // Relative coordinates: the compiler folds `(x + c) - x` to `c`.
     let rel = |q: (i64, i64)| (q.0 - x, q.1 - y);
-    let (diamond, kids) = shape(g, x, y, 1, pass);
+    let (diamond, kids) = shape(g, x, y, H, pass);
     let mut c = 0.0f32;
     for &(cx, cy) in kids.iter().flatten() {
         c = c.max(errors.get(idx(cx, cy)));
     }
     let mut e = 0.0f64;
     for tri in diamond.iter().flatten() {
-        e = e.max(small_error(&nb, [rel(tri[0]), rel(tri[1]), rel(tri[2])]));
+        let q = [rel(tri[0]), rel(tri[1]), rel(tri[2])];
+        let te = if H == 1 {
+            small_error(&nb, q)
+        } else {
+            box_error::<H, S>(&nb, q)
+        };
+        e = e.max(te);
     }
     errors.put(idx(x, y), round_up(e).max(c));
     if let Some(r) = radii {
         let s = t.scale();
         let pos = |q: (i64, i64)| {
-            let (dx, dy) = rel(q);
-            let z = nb
-                .get(((dy + 1) * 3 + dx + 1) as usize)
-                .copied()
-                .unwrap_or(0.0);
+            let z = nb_at::<H, S>(&nb, rel(q));
             [q.0 as f64 * s.dx as f64, q.1 as f64 * s.dy as f64, z]
         };
         let p = pos((x, y));
@@ -625,7 +674,7 @@ mod fast_tests {
         PreprocessOptions,
     };
     use super::FAST_FINEST;
-    use crate::{Heightfield, Scale};
+    use crate::{Heightfield, Scale, Terrain};
     use std::vec;
     use std::vec::Vec;
 
@@ -669,6 +718,58 @@ mod fast_tests {
 
     fn bits(v: &[f32]) -> Vec<u32> {
         v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// Each triangle's error from the neighbourhood paths ([`super::small_error`],
+    /// [`super::box_error`]) equals [`super::triangle_error`]'s bit for bit, triangle by
+    /// triangle (the nested values above can hide a wrong triangle behind a child's error).
+    #[test]
+    fn neighbourhood_triangle_errors_match_rasterising() {
+        use super::super::grid::RefineGrid;
+        use super::{box_error, shape, small_error, triangle_error};
+        let mut checked = 0usize;
+        for (w, h, kind) in [(17, 17, 0), (13, 9, 2), (9, 11, 1)] {
+            let s = terrain(w, h, 99 + kind as u64, kind);
+            let hf = Heightfield::new(&s, w, h).unwrap();
+            let g = RefineGrid::new(w, h).unwrap();
+            for hs in [1i64, 2] {
+                for (pass, (x0, y0)) in [(hs, 0), (0, hs), (hs, hs)].into_iter().enumerate() {
+                    for y in (y0..h as i64 - hs).step_by(2 * hs as usize) {
+                        for x in (x0..w as i64 - hs).step_by(2 * hs as usize) {
+                            if x < hs || y < hs {
+                                continue;
+                            }
+                            let (diamond, _) = shape(&g, x, y, hs, pass);
+                            let mut nb3 = [0.0f64; 9];
+                            let mut nb5 = [0.0f64; 25];
+                            for (k, v) in nb3.iter_mut().enumerate() {
+                                let (dx, dy) = ((k % 3) as i64 - 1, (k / 3) as i64 - 1);
+                                *v = hf.local_z((x + dx) as u32, (y + dy) as u32) as f64;
+                            }
+                            for (k, v) in nb5.iter_mut().enumerate() {
+                                let (dx, dy) = ((k % 5) as i64 - 2, (k / 5) as i64 - 2);
+                                let (qx, qy) = (x + dx, y + dy);
+                                if qx >= 0 && qy >= 0 && qx < w as i64 && qy < h as i64 {
+                                    *v = hf.local_z(qx as u32, qy as u32) as f64;
+                                }
+                            }
+                            for tri in diamond.iter().flatten() {
+                                let want = triangle_error(&hf, &g, *tri).to_bits();
+                                let q = tri.map(|p| (p.0 - x, p.1 - y));
+                                let got5 = box_error::<2, 25>(&nb5, q).to_bits();
+                                assert_eq!(got5, want, "box5 ({x},{y}) h {hs} {tri:?}");
+                                if hs == 1 {
+                                    assert_eq!(small_error(&nb3, q).to_bits(), want);
+                                    assert_eq!(box_error::<1, 9>(&nb3, q).to_bits(), want);
+                                }
+                                checked += usize::from(want != 0);
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(checked > 300, "{checked}");
     }
 
     /// Every preprocessing entry point stores bit-identical errors and radii with the
