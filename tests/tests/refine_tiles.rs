@@ -659,8 +659,15 @@ fn compact_tiles_are_crack_free_and_within_e() {
         let mut o = o;
         o.allow_holes = culling;
         let rep = check_mesh(&v, &t, &o).unwrap_or_else(|m| panic!("tau {tau}: {m}"));
-        eprintln!("compact view-dependent tau {tau}: {} triangles", rep.triangles);
-        assert!(rep.triangles > 200, "tau {tau}: {} triangles", rep.triangles);
+        eprintln!(
+            "compact view-dependent tau {tau}: {} triangles",
+            rep.triangles
+        );
+        assert!(
+            rep.triangles > 200,
+            "tau {tau}: {} triangles",
+            rep.triangles
+        );
     }
 }
 
@@ -687,5 +694,43 @@ fn compact_random_small_maps_in_tiles() {
             let err = vertical_error(&hf, &v, &t, &mut cov).unwrap();
             assert!(err <= e as f64, "{w}x{h} E={e}: measured {err}");
         }
+    }
+}
+
+/// Compact view-dependent tiles when the last tiles are smaller (embedded in smaller squares,
+/// so their level-only radii come from another root size, computed with exact powers of two so
+/// that the same half-size gets the same radius): still crack-free.
+#[test]
+fn compact_view_dependent_smaller_last_tiles() {
+    let (s, w, _, scale) = puget();
+    let (cw, ch) = (1000u32, 700u32);
+    let mut crop = Vec::with_capacity((cw * ch) as usize);
+    for y in 0..ch {
+        let row = (y * w) as usize;
+        crop.extend_from_slice(&s[row..row + cw as usize]);
+    }
+    let mut tiles = cut_compact(&crop, cw, ch, 129, scale);
+    let last = tiles.last().unwrap().last().unwrap();
+    assert_eq!((last.w, last.h), (104, 60));
+    exchange_compact(&mut tiles, scale);
+    let hf = Heightfield::with_scale(&crop, cw, ch, scale).unwrap();
+    let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+    for y in 0..ch {
+        for x in 0..cw {
+            lo = lo.min(hf.local_z(x, y));
+            hi = hi.max(hf.local_z(x, y));
+        }
+    }
+    let (ex, ey) = ((cw - 1) as f32 * scale.dx, (ch - 1) as f32 * scale.dy);
+    let eye = Vec3::new(0.93 * ex, 0.9 * ey, hi + scale.z_offset + 100.0);
+    let cam = Camera::new(eye, Vec3::new(0.2 * ex, 0.3 * ey, 0.0), 60.0, 1024, 768).unwrap();
+    let o = CheckOptions::grid(cw, ch, scale.dx as f64, scale.dy as f64);
+    for tau in [0.5f32, 1.0, 2.0, 4.0, 8.0] {
+        let view = View::new(&cam, tau)
+            .unwrap()
+            .with_culling(false)
+            .with_z_range(lo, hi);
+        let (v, t) = union_compact(&tiles, scale, 0.0, Some(view));
+        check_mesh(&v, &t, &o).unwrap_or_else(|m| panic!("tau {tau}: {m}"));
     }
 }

@@ -188,10 +188,20 @@ impl<'a> Hierarchy<'a> {
         let mut level_radius = [0.0f32; 64];
         let l0 = grid.side() as f64 * 0.5 * scale.dx.max(scale.dy) as f64;
         let q = core::f64::consts::FRAC_1_SQRT_2;
-        let mut li = l0;
-        for r in level_radius.iter_mut().take(grid.levels() as usize) {
+        // l_i = l_0 q^i as l_0 2^-(i/2) (times q for odd i): exact powers of two, so a tile
+        // embedded in a square half the size (l_0 / 2, two levels fewer) gets bit-identical radii
+        // for the same half-size, and tiles decide shared vertices alike (see `tile.rs`).
+        let mut even = l0;
+        for (i, r) in level_radius
+            .iter_mut()
+            .take(grid.levels() as usize)
+            .enumerate()
+        {
+            let li = if i % 2 == 0 { even } else { even * q };
             *r = preprocess::round_up(li / (1.0 - q) * (1.0 + preprocess::CIRCLE_MARGIN));
-            li *= q;
+            if i % 2 == 1 {
+                even *= 0.5;
+            }
         }
         Hierarchy {
             grid,
