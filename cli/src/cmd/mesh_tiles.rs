@@ -2,7 +2,10 @@
 //! samples sharing their border rows and columns, each preprocessed and meshed on its own, made
 //! to agree on their border vertices by the border protocol of relief_core::refine (export,
 //! merge, re-nest until nothing is raised; issue 6 part 2), so the union of the tile meshes is
-//! crack-free without skirts. Optional skirts (`--skirt DEPTH`) for users who want them.
+//! crack-free without skirts, view-independent (`--max-error`) or view-dependent (`--eye ...`:
+//! one camera in map coordinates, each tile refined with its grid origin and the map's height
+//! range), in the full or the compact layout. Optional skirts (`--skirt DEPTH`,
+//! relief_core::refine::skirt) for users who want them.
 
 use crate::{print_out, CliError, CliResult};
 use relief_core::refine::{
