@@ -408,54 +408,150 @@ fn vertex_near<const H: i64, const S: usize, T: Terrain, E: ErrorSink + ?Sized>(
     radii: Option<&mut [f32]>,
     contain_corners: bool,
 ) {
-    let w = g.width() as usize;
-    let idx = |x: i64, y: i64| y as usize * w + x as usize;
     let mut nb = [0.0f64; S];
     let side = (2 * H + 1) as usize;
-    for (k, v) in nb.iter_mut().enumerate() {
-        let (dx, dy) = ((k % side) as i64 - H, (k / side) as i64 - H);
-        *v = local(t, x + dx, y + dy);
+    // Row by row (constant trip counts unroll; no division per entry).
+    for (row, dy) in nb.chunks_exact_mut(side).zip(-H..=H) {
+        for (v, dx) in row.iter_mut().zip(-H..=H) {
+            *v = local(t, x + dx, y + dy);
+        }
     }
-    // Relative coordinates: the compiler folds `(x + c) - x` to `c`.
-    let rel = |q: (i64, i64)| (q.0 - x, q.1 - y);
-    let (diamond, kids) = shape(g, x, y, H, pass);
+    // The diamond (two triangles), its four distinct corners and the children, relative to
+    // the vertex, as in [`shape`] (tested equal to the grid's reference sets): constants in each
+    // arm once inlined. Only maxima are taken over them, so their order does not matter.
+    let (h, q) = (H, H / 2);
+    let diag_kids = [(-q, -q), (q, -q), (-q, q), (q, q)];
+    let kids_of_edge: &[(i64, i64)] = if H >= 2 { &diag_kids } else { &[] };
+    let centre_kids = [(-h, 0), (h, 0), (0, -h), (0, h)];
+    let edge_h = [(-h, 0), (h, 0), (0, h), (0, -h)];
+    let edge_v = [(0, -h), (0, h), (-h, 0), (h, 0)];
+    let square = [(-h, -h), (h, -h), (-h, h), (h, h)];
+    let k = (2 * H).trailing_zeros();
+    match pass {
+        0 => near_store::<H, S, T, E>(
+            t,
+            g,
+            (x, y),
+            &nb,
+            [
+                [edge_h[0], edge_h[1], edge_h[2]],
+                [edge_h[1], edge_h[0], edge_h[3]],
+            ],
+            edge_h,
+            kids_of_edge,
+            errors,
+            radii,
+            contain_corners,
+        ),
+        1 => near_store::<H, S, T, E>(
+            t,
+            g,
+            (x, y),
+            &nb,
+            [
+                [edge_v[0], edge_v[1], edge_v[2]],
+                [edge_v[1], edge_v[0], edge_v[3]],
+            ],
+            edge_v,
+            kids_of_edge,
+            errors,
+            radii,
+            contain_corners,
+        ),
+        _ if (((x - h) >> k) + ((y - h) >> k)) & 1 == 0 => near_store::<H, S, T, E>(
+            t,
+            g,
+            (x, y),
+            &nb,
+            [
+                [square[0], square[1], square[3]],
+                [square[0], square[3], square[2]],
+            ],
+            square,
+            &centre_kids,
+            errors,
+            radii,
+            contain_corners,
+        ),
+        _ => near_store::<H, S, T, E>(
+            t,
+            g,
+            (x, y),
+            &nb,
+            [
+                [square[0], square[1], square[2]],
+                [square[1], square[3], square[2]],
+            ],
+            square,
+            &centre_kids,
+            errors,
+            radii,
+            contain_corners,
+        ),
+    }
+}
+
+/// The rest of [`vertex_near`] for one diamond shape: `diamond`, `corners` (its four distinct
+/// corners) and `kids` relative to `(x, y)`. The radius takes one square root for all corners
+/// (`sqrt` is correctly rounded, hence monotone: the square root of the largest squared distance
+/// is the largest distance, bit for bit).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn near_store<const H: i64, const S: usize, T: Terrain, E: ErrorSink + ?Sized>(
+    t: &T,
+    g: &RefineGrid,
+    (x, y): (i64, i64),
+    nb: &[f64; S],
+    diamond: [[(i64, i64); 3]; 2],
+    corners: [(i64, i64); 4],
+    kids: &[(i64, i64)],
+    errors: &mut E,
+    radii: Option<&mut [f32]>,
+    contain_corners: bool,
+) {
+    let w = g.width() as usize;
+    let idx = |q: (i64, i64)| (y + q.1) as usize * w + (x + q.0) as usize;
     let mut c = 0.0f32;
-    for &(cx, cy) in kids.iter().flatten() {
-        c = c.max(errors.get(idx(cx, cy)));
+    for &kq in kids {
+        c = c.max(errors.get(idx(kq)));
     }
     let mut e = 0.0f64;
-    for tri in diamond.iter().flatten() {
-        let q = [rel(tri[0]), rel(tri[1]), rel(tri[2])];
+    for tri in diamond {
         let te = if H == 1 {
-            small_error(&nb, q)
+            small_error(nb, tri)
         } else {
-            box_error::<H, S>(&nb, q)
+            box_error::<H, S>(nb, tri)
         };
         e = e.max(te);
     }
-    errors.put(idx(x, y), round_up(e).max(c));
+    errors.put(idx((0, 0)), round_up(e).max(c));
     if let Some(r) = radii {
         let s = t.scale();
         let pos = |q: (i64, i64)| {
-            let z = nb_at::<H, S>(&nb, rel(q));
-            [q.0 as f64 * s.dx as f64, q.1 as f64 * s.dy as f64, z]
+            [
+                (x + q.0) as f64 * s.dx as f64,
+                (y + q.1) as f64 * s.dy as f64,
+                nb_at::<H, S>(nb, q),
+            ]
         };
-        let p = pos((x, y));
+        let p = pos((0, 0));
+        let d2 = |a: [f64; 3], b: [f64; 3]| {
+            let (dx, dy, dz) = (a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+            dx * dx + dy * dy + dz * dz
+        };
         let mut rad = 0.0f64;
         if contain_corners {
-            let [a, b] = diamond;
-            let seen = |q: (i64, i64)| a.is_some_and(|ta| ta.contains(&q));
-            let firsts = a.into_iter().flatten();
-            let seconds = b.into_iter().flatten().filter(|&q| !seen(q));
-            for q in firsts.chain(seconds) {
-                rad = rad.max(dist(p, pos(q)));
+            let mut m = 0.0f64;
+            for cq in corners {
+                m = m.max(d2(p, pos(cq)));
             }
+            rad = rad.max(libm::sqrt(m));
         }
-        for &q in kids.iter().flatten() {
-            let rc = r.get(idx(q.0, q.1)).copied().unwrap_or(0.0) as f64;
-            rad = rad.max(dist(p, pos(q)) + rc);
+        for &kq in kids {
+            let rc = r.get(idx(kq)).copied().unwrap_or(0.0) as f64;
+            rad = rad.max(dist(p, pos(kq)) + rc);
         }
-        if let Some(slot) = r.get_mut(idx(x, y)) {
+        if let Some(slot) = r.get_mut(idx((0, 0))) {
             *slot = round_up(rad * (1.0 + SPHERE_MARGIN) + f64::MIN_POSITIVE);
         }
     }
