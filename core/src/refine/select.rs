@@ -1401,3 +1401,87 @@ impl Sink for ListSink<'_, '_> {
         self.n += 1;
     }
 }
+
+#[cfg(test)]
+mod cull_tests {
+    use super::*;
+    use crate::refine::{preprocess, preprocess_compact};
+    use crate::Heightfield;
+    use glam::Vec3;
+
+    /// The all-planes loop `cull_at` replaced (every plane visited, inactive ones skipped).
+    fn reference(v: &ViewData, px: f64, py: f64, z: f64, r: f64, planes: u8) -> Option<u8> {
+        let mut out = planes;
+        for (k, p) in v.planes.iter().enumerate() {
+            if planes & (1 << k) == 0 {
+                continue;
+            }
+            let (lo, hi) = if v.spheres {
+                let c = p[0] * px + p[1] * py + p[2] * z + p[3];
+                (c - r, c + r)
+            } else {
+                let hyp = libm::sqrt(p[0] * p[0] + p[1] * p[1]);
+                let c = p[0] * px + p[1] * py + p[3];
+                let (za, zb) = (p[2] * v.z_lo, p[2] * v.z_hi);
+                (c - r * hyp + za.min(zb), c + r * hyp + za.max(zb))
+            };
+            if hi < 0.0 {
+                return None;
+            }
+            if lo > 0.0 {
+                out &= !(1 << k);
+            }
+        }
+        Some(out)
+    }
+
+    #[test]
+    fn active_plane_iteration_matches_the_all_planes_loop() {
+        let s: Vec<f32> = (0..289).map(|i| ((i * 37) % 23) as f32).collect();
+        let hf = Heightfield::new(&s, 17, 17).unwrap();
+        let (mut e, mut r) = (vec![0.0; 289], vec![0.0; 289]);
+        let full = preprocess(&hf, &mut e, &mut r).unwrap();
+        let mut c = vec![0u16; 289];
+        let compact = preprocess_compact(&hf, &mut c).unwrap();
+        let cam = Camera::new(
+            Vec3::new(-4.0, 3.0, 30.0),
+            Vec3::new(10.0, 8.0, 0.0),
+            50.0,
+            320,
+            200,
+        )
+        .unwrap();
+        let view = View::new(&cam, 1.0).unwrap().with_near_far(0.5, Some(40.0));
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut culled, mut kept, mut dropped) = (0, 0, 0);
+        for h in [&full, &compact] {
+            let rf = Refiner::new(h, &hf, Criterion::View(view)).unwrap();
+            let v = rf.view.unwrap();
+            assert_eq!(v.spheres, core::ptr::eq(h, &full));
+            assert_eq!(v.mask, 0b11_1111);
+            for _ in 0..4000 {
+                let (px, py) = (next() * 60.0 - 20.0, next() * 60.0 - 20.0);
+                let (z, rad) = (next() * 80.0 - 20.0, next() * 6.0);
+                let planes = (next() * 64.0) as u8 & 0b11_1111;
+                let got = cull_at(&v, px, py, z, rad, planes);
+                assert_eq!(got, reference(&v, px, py, z, rad, planes));
+                match got {
+                    None => culled += 1,
+                    Some(p) if p != planes => dropped += 1,
+                    Some(_) => kept += 1,
+                }
+            }
+        }
+        // Every outcome occurs: the comparison is not vacuous.
+        assert!(
+            culled > 100 && dropped > 100 && kept > 100,
+            "{culled} {dropped} {kept}"
+        );
+    }
+}
