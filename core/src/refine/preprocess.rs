@@ -118,11 +118,26 @@ pub(crate) fn triangle_error(t: &impl Terrain, g: &RefineGrid, p: [(i64, i64); 3
             }
             let mut e = 0.0f64;
             for_each_span(p[0], p[1], p[2], |y, lo, hi| {
-                // A register accumulator per row (the captured `e` would be stored every step).
-                let mut row = 0.0f64;
-                for x in lo..=hi {
+                // Register accumulators per row (the captured `e` would be stored every step),
+                // four of them so that the maxima do not wait on each other (a maximum does not
+                // depend on the order).
+                let mut acc = [0.0f64; 4];
+                let mut x = lo;
+                while x + 3 <= hi {
+                    for (k, a) in (0i64..).zip(acc.iter_mut()) {
+                        let d = (local(t, x + k, y) - plane.at(x + k, y)).abs();
+                        *a = if d > *a { d } else { *a };
+                    }
+                    x += 4;
+                }
+                let [mut row, a1, a2, a3] = acc;
+                while x <= hi {
                     let d = (local(t, x, y) - plane.at(x, y)).abs();
                     row = if d > row { d } else { row };
+                    x += 1;
+                }
+                for a in [a1, a2, a3] {
+                    row = if a > row { a } else { row };
                 }
                 if row > e {
                     e = row;
