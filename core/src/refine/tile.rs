@@ -119,6 +119,14 @@ pub fn border_len(width: u32, height: u32, side: Side) -> usize {
     }
 }
 
+/// Storage index (`y * width + x`) of each of the first `n` samples along `side`, in order.
+fn border_indices(width: u32, height: u32, side: Side, n: usize) -> impl Iterator<Item = usize> {
+    (0..n).map(move |i| {
+        let (x, y) = side.point(width, height, i as u32);
+        y as usize * width as usize + x as usize
+    })
+}
+
 fn check_arrays(
     width: u32,
     height: u32,
@@ -182,14 +190,11 @@ pub fn export_border(
         out_errors.len(),
         out_radii.len(),
     )?;
-    for (i, (oe, or)) in out_errors
+    for ((oe, or), k) in out_errors
         .iter_mut()
         .zip(out_radii.iter_mut())
-        .take(n)
-        .enumerate()
+        .zip(border_indices(width, height, side, n))
     {
-        let (x, y) = side.point(width, height, i as u32);
-        let k = y as usize * width as usize + x as usize;
         *oe = errors.get(k).copied().unwrap_or(f32::INFINITY);
         *or = radii.get(k).copied().unwrap_or(f32::INFINITY);
     }
@@ -227,14 +232,11 @@ pub fn merge_border(
         neighbour_radii.len(),
     )?;
     let mut raised = 0usize;
-    for (i, (&ne, &nr)) in neighbour_errors
+    for ((&ne, &nr), k) in neighbour_errors
         .iter()
         .zip(neighbour_radii)
-        .take(n)
-        .enumerate()
+        .zip(border_indices(width, height, side, n))
     {
-        let (x, y) = side.point(width, height, i as u32);
-        let k = y as usize * width as usize + x as usize;
         if let Some(e) = errors.get_mut(k) {
             if ne > *e {
                 *e = ne;
@@ -283,23 +285,9 @@ pub fn renest<'a, T: Terrain>(
     let _ = options; // the children's spheres are contained whatever the corner option
     let g = preprocess::check(terrain, errors.len())?;
     preprocess::check(terrain, radii.len())?;
-    let (w, hgt) = (g.width() as i64, g.height() as i64);
-    let n = g.side() as i64;
-    let mut h = 1i64;
-    while h < n {
-        for (x0, y0, d) in passes(h) {
-            for &side in sides.iter().take(4) {
-                let (xl, xh, yl, yh) = match side {
-                    Side::XMin => (0, d, 0, hgt - 1),
-                    Side::XMax => (w - 1 - d, w - 1, 0, hgt - 1),
-                    Side::YMin => (0, w - 1, 0, d),
-                    Side::YMax => (0, w - 1, hgt - 1 - d, hgt - 1),
-                };
-                nest_range(terrain, &g, h, (x0, y0), (xl, xh, yl, yh), errors, radii);
-            }
-        }
-        h *= 2;
-    }
+    for_each_border_pass(&g, sides, |h, origin, rect| {
+        nest_range(terrain, &g, h, origin, rect, errors, radii);
+    });
     Ok(preprocess::finish(
         terrain,
         g,
@@ -308,16 +296,40 @@ pub fn renest<'a, T: Terrain>(
     ))
 }
 
-/// Re-nests the vertices of one pass in a rectangle: error at least the children's, radius
-/// containing the children's spheres.
-fn nest_range<T: Terrain>(
-    t: &T,
+/// An inclusive rectangle of grid indices `(x_lo, x_hi, y_lo, y_hi)`.
+type Rect = (i64, i64, i64, i64);
+
+/// Calls `f(h, pass_origin, rect)` bottom-up for every half-size `h` of `g`, every pass of that
+/// half-size and every one of `sides` (at most four), with `rect` the band of the vertices within
+/// `3h` samples of the side, whose descendants can reach it.
+fn for_each_border_pass(g: &RefineGrid, sides: &[Side], mut f: impl FnMut(i64, (i64, i64), Rect)) {
+    let (w, hgt) = (g.width() as i64, g.height() as i64);
+    let n = g.side() as i64;
+    let mut h = 1i64;
+    while h < n {
+        for (x0, y0, d) in passes(h) {
+            for &side in sides.iter().take(4) {
+                let rect = match side {
+                    Side::XMin => (0, d, 0, hgt - 1),
+                    Side::XMax => (w - 1 - d, w - 1, 0, hgt - 1),
+                    Side::YMin => (0, w - 1, 0, d),
+                    Side::YMax => (0, w - 1, hgt - 1 - d, hgt - 1),
+                };
+                f(h, (x0, y0), rect);
+            }
+        }
+        h *= 2;
+    }
+}
+
+/// Calls `f(x, y)` for every vertex of the pass with half-size `h` and origin `(x0, y0)` (the
+/// lattice `(x0 + 2h i, y0 + 2h j)`) inside `rect` and the grid, row by row.
+fn for_each_pass_vertex(
     g: &RefineGrid,
     h: i64,
     (x0, y0): (i64, i64),
-    (xl, xh, yl, yh): (i64, i64, i64, i64),
-    errors: &mut [f32],
-    radii: &mut [f32],
+    (xl, xh, yl, yh): Rect,
+    mut f: impl FnMut(i64, i64),
 ) {
     let (wi, hi) = (g.width() as i64, g.height() as i64);
     let step = 2 * h;
@@ -329,6 +341,28 @@ fn nest_range<T: Terrain>(
             o + step * ((lo - o + step - 1) / step.max(1))
         }
     };
+    let mut y = first(y0, yl);
+    while y <= yh.min(hi - 1) {
+        let mut x = first(x0, xl);
+        while x <= xh.min(wi - 1) {
+            f(x, y);
+            x += step;
+        }
+        y += step;
+    }
+}
+
+/// Re-nests the vertices of one pass in a rectangle: error at least the children's, radius
+/// containing the children's spheres.
+fn nest_range<T: Terrain>(
+    t: &T,
+    g: &RefineGrid,
+    h: i64,
+    origin: (i64, i64),
+    rect: Rect,
+    errors: &mut [f32],
+    radii: &mut [f32],
+) {
     let w = g.width() as usize;
     let idx = |x: i64, y: i64| y as usize * w + x as usize;
     let pos = |x: i64, y: i64| {
@@ -339,36 +373,30 @@ fn nest_range<T: Terrain>(
             t.local_z(x as u32, y as u32) as f64,
         ]
     };
-    let mut y = first(y0, yl);
-    while y <= yh.min(hi - 1) {
-        let mut x = first(x0, xl);
-        while x <= xh.min(wi - 1) {
-            let kids = g.children(x as u32, y as u32);
-            let mut e = errors.get(idx(x, y)).copied().unwrap_or(0.0);
-            let p = pos(x, y);
-            let mut rad = 0.0f64;
-            for &(cx, cy) in kids.iter().flatten() {
-                if g.in_domain(cx, cy) {
-                    e = e.max(errors.get(idx(cx, cy)).copied().unwrap_or(0.0));
-                    let rc = radii.get(idx(cx, cy)).copied().unwrap_or(0.0) as f64;
-                    let q = pos(cx, cy);
-                    let (dx, dy, dz) = (p[0] - q[0], p[1] - q[1], p[2] - q[2]);
-                    rad = rad.max(libm::sqrt(dx * dx + dy * dy + dz * dz) + rc);
-                }
+    for_each_pass_vertex(g, h, origin, rect, |x, y| {
+        let kids = g.children(x as u32, y as u32);
+        let mut e = errors.get(idx(x, y)).copied().unwrap_or(0.0);
+        let p = pos(x, y);
+        let mut rad = 0.0f64;
+        for &(cx, cy) in kids.iter().flatten() {
+            if g.in_domain(cx, cy) {
+                e = e.max(errors.get(idx(cx, cy)).copied().unwrap_or(0.0));
+                let rc = radii.get(idx(cx, cy)).copied().unwrap_or(0.0) as f64;
+                let q = pos(cx, cy);
+                let (dx, dy, dz) = (p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+                rad = rad.max(libm::sqrt(dx * dx + dy * dy + dz * dz) + rc);
             }
-            if let Some(s) = errors.get_mut(idx(x, y)) {
-                *s = e;
-            }
-            if rad > 0.0 {
-                let need = round_up(rad * (1.0 + preprocess::SPHERE_MARGIN) + f64::MIN_POSITIVE);
-                if let Some(s) = radii.get_mut(idx(x, y)) {
-                    *s = s.max(need);
-                }
-            }
-            x += step;
         }
-        y += step;
-    }
+        if let Some(s) = errors.get_mut(idx(x, y)) {
+            *s = e;
+        }
+        if rad > 0.0 {
+            let need = round_up(rad * (1.0 + preprocess::SPHERE_MARGIN) + f64::MIN_POSITIVE);
+            if let Some(s) = radii.get_mut(idx(x, y)) {
+                *s = s.max(need);
+            }
+        }
+    });
 }
 
 /// Most skirt vertices, and most skirt triangles, [`skirt`] emits for a `width x height` tile:
@@ -537,9 +565,10 @@ pub fn export_border_compact(
         out_errors.len(),
         out_errors.len(),
     )?;
-    for (i, oe) in out_errors.iter_mut().take(n).enumerate() {
-        let (x, y) = side.point(width, height, i as u32);
-        let k = y as usize * width as usize + x as usize;
+    for (oe, k) in out_errors
+        .iter_mut()
+        .zip(border_indices(width, height, side, n))
+    {
         *oe = errors.get(k).copied().unwrap_or(BF16_INFINITY);
     }
     Ok(n)
@@ -576,9 +605,10 @@ pub fn merge_border_compact(
         neighbour_errors.len(),
     )?;
     let mut raised = 0usize;
-    for (i, &ne) in neighbour_errors.iter().take(n).enumerate() {
-        let (x, y) = side.point(width, height, i as u32);
-        let k = y as usize * width as usize + x as usize;
+    for (&ne, k) in neighbour_errors
+        .iter()
+        .zip(border_indices(width, height, side, n))
+    {
         if let Some(e) = errors.get_mut(k) {
             // A NaN code (never written by preprocessing) counts as infinite: always refined.
             let ne = if ne & 0x7FFF > BF16_INFINITY {
@@ -616,23 +646,9 @@ pub fn renest_compact<'a, T: Terrain>(
     sides: &[Side],
 ) -> Result<Hierarchy<'a>, Error> {
     let g = preprocess::check(terrain, errors.len())?;
-    let (w, hgt) = (g.width() as i64, g.height() as i64);
-    let n = g.side() as i64;
-    let mut h = 1i64;
-    while h < n {
-        for (x0, y0, d) in passes(h) {
-            for &side in sides.iter().take(4) {
-                let (xl, xh, yl, yh) = match side {
-                    Side::XMin => (0, d, 0, hgt - 1),
-                    Side::XMax => (w - 1 - d, w - 1, 0, hgt - 1),
-                    Side::YMin => (0, w - 1, 0, d),
-                    Side::YMax => (0, w - 1, hgt - 1 - d, hgt - 1),
-                };
-                nest_codes(&g, h, (x0, y0), (xl, xh, yl, yh), errors);
-            }
-        }
-        h *= 2;
-    }
+    for_each_border_pass(&g, sides, |h, origin, rect| {
+        nest_codes(&g, h, origin, rect, errors);
+    });
     Ok(preprocess::finish(
         terrain,
         g,
@@ -642,40 +658,18 @@ pub fn renest_compact<'a, T: Terrain>(
 }
 
 /// Re-nests the error codes of one pass in a rectangle.
-fn nest_codes(
-    g: &RefineGrid,
-    h: i64,
-    (x0, y0): (i64, i64),
-    (xl, xh, yl, yh): (i64, i64, i64, i64),
-    errors: &mut [u16],
-) {
-    let (wi, hi) = (g.width() as i64, g.height() as i64);
-    let step = 2 * h;
-    let first = |o: i64, lo: i64| {
-        let lo = lo.max(0);
-        if lo <= o {
-            o
-        } else {
-            o + step * ((lo - o + step - 1) / step.max(1))
-        }
-    };
+fn nest_codes(g: &RefineGrid, h: i64, origin: (i64, i64), rect: Rect, errors: &mut [u16]) {
     let w = g.width() as usize;
     let idx = |x: i64, y: i64| y as usize * w + x as usize;
-    let mut y = first(y0, yl);
-    while y <= yh.min(hi - 1) {
-        let mut x = first(x0, xl);
-        while x <= xh.min(wi - 1) {
-            let mut e = errors.get(idx(x, y)).copied().unwrap_or(0);
-            for &(cx, cy) in g.children(x as u32, y as u32).iter().flatten() {
-                if g.in_domain(cx, cy) {
-                    e = e.max(errors.get(idx(cx, cy)).copied().unwrap_or(0));
-                }
+    for_each_pass_vertex(g, h, origin, rect, |x, y| {
+        let mut e = errors.get(idx(x, y)).copied().unwrap_or(0);
+        for &(cx, cy) in g.children(x as u32, y as u32).iter().flatten() {
+            if g.in_domain(cx, cy) {
+                e = e.max(errors.get(idx(cx, cy)).copied().unwrap_or(0));
             }
-            if let Some(s) = errors.get_mut(idx(x, y)) {
-                *s = e;
-            }
-            x += step;
         }
-        y += step;
-    }
+        if let Some(s) = errors.get_mut(idx(x, y)) {
+            *s = e;
+        }
+    });
 }
