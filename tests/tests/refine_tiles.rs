@@ -7,16 +7,13 @@ use relief_core::glam::Vec3;
 use relief_core::refine::{
     border_len, coverage_len, export_border, export_border_compact, hierarchy_len, merge_border,
     merge_border_compact, preprocess_compact, preprocess_pyramid, pyramid_len, renest,
-    renest_compact, scratch_len, skirt, skirt_bound, vertical_error, Criterion, PreprocessOptions,
-    Refiner, Side, View,
+    renest_compact, scratch_len, skirt, skirt_bound, vertical_error, Criterion, Hierarchy,
+    PreprocessOptions, Refiner, Side, View,
 };
 use relief_core::{Camera, Heightfield, Scale, Terrain};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
 use std::collections::HashMap;
 use std::path::Path;
-
-/// Errors and radii each tile exported, per side.
-type Exported = HashMap<(usize, usize, Side), (Vec<f32>, Vec<f32>)>;
 
 struct Tile {
     x0: u32,
@@ -86,17 +83,46 @@ fn neighbour(rows: usize, cols: usize, r: usize, c: usize, side: Side) -> Option
 
 /// Runs the border protocol until no merge raises a value; returns the number of rounds.
 fn exchange(tiles: &mut [Vec<Tile>], scale: Scale) -> usize {
+    protocol(
+        tiles,
+        |t, side| {
+            let n = border_len(t.w, t.h, side);
+            let (mut be, mut br) = (vec![0.0; n], vec![0.0; n]);
+            export_border(t.w, t.h, &t.e, &t.r, side, &mut be, &mut br).unwrap();
+            (be, br)
+        },
+        |t, side, (be, br)| merge_border(t.w, t.h, &mut t.e, &mut t.r, side, be, br).unwrap(),
+        |t, merged| {
+            let hf = Heightfield::with_scale(&t.s, t.w, t.h, scale).unwrap();
+            renest(
+                &hf,
+                &mut t.e,
+                &mut t.r,
+                merged,
+                PreprocessOptions::default(),
+            )
+            .unwrap();
+        },
+    )
+}
+
+/// Runs a border protocol (`export` a side, `merge` a neighbour's export into a side, returning
+/// how many values it raised, `renest` the merged sides) until no merge raises a value; returns
+/// the number of rounds.
+fn protocol<T, B>(
+    tiles: &mut [Vec<T>],
+    export: impl Fn(&T, Side) -> B,
+    mut merge: impl FnMut(&mut T, Side, &B) -> usize,
+    mut renest: impl FnMut(&mut T, &[Side]),
+) -> usize {
     let (rows, cols) = (tiles.len(), tiles[0].len());
     for round in 1..=32 {
-        let mut out: Exported = HashMap::new();
+        let mut out: HashMap<(usize, usize, Side), B> = HashMap::new();
         for (r, row) in tiles.iter().enumerate() {
             for (c, t) in row.iter().enumerate() {
                 for side in Side::ALL {
                     if neighbour(rows, cols, r, c, side).is_some() {
-                        let n = border_len(t.w, t.h, side);
-                        let (mut be, mut br) = (vec![0.0; n], vec![0.0; n]);
-                        export_border(t.w, t.h, &t.e, &t.r, side, &mut be, &mut br).unwrap();
-                        out.insert((r, c, side), (be, br));
+                        out.insert((r, c, side), export(t, side));
                     }
                 }
             }
@@ -107,8 +133,7 @@ fn exchange(tiles: &mut [Vec<Tile>], scale: Scale) -> usize {
                 let mut merged = Vec::new();
                 for side in Side::ALL {
                     if let Some((nr, nc)) = neighbour(rows, cols, r, c, side) {
-                        let (be, br) = &out[&(nr, nc, side.opposite())];
-                        let k = merge_border(t.w, t.h, &mut t.e, &mut t.r, side, be, br).unwrap();
+                        let k = merge(t, side, &out[&(nr, nc, side.opposite())]);
                         if k > 0 {
                             merged.push(side);
                         }
@@ -116,15 +141,7 @@ fn exchange(tiles: &mut [Vec<Tile>], scale: Scale) -> usize {
                     }
                 }
                 if !merged.is_empty() {
-                    let hf = Heightfield::with_scale(&t.s, t.w, t.h, scale).unwrap();
-                    renest(
-                        &hf,
-                        &mut t.e,
-                        &mut t.r,
-                        &merged,
-                        PreprocessOptions::default(),
-                    )
-                    .unwrap();
+                    renest(t, &merged);
                 }
             }
         }
@@ -135,37 +152,55 @@ fn exchange(tiles: &mut [Vec<Tile>], scale: Scale) -> usize {
     panic!("the border protocol did not settle in 32 rounds");
 }
 
+/// The welded union of tile meshes: vertices keyed by their map grid index.
+#[derive(Default)]
+struct Weld {
+    at: HashMap<(u32, u32), u32>,
+    v: Vec<[f32; 3]>,
+    t: Vec<[u32; 3]>,
+    /// The most triangles one tile contributed.
+    per_tile_max: usize,
+}
+
+impl Weld {
+    /// Meshes the tile at grid origin `(x0, y0)` with criterion `c` and adds it to the union.
+    fn add(&mut self, h: &Hierarchy, hf: &Heightfield<f32>, c: Criterion, (x0, y0): (u32, u32)) {
+        let scale = hf.scale();
+        let r = Refiner::new(h, hf, c).unwrap();
+        let mut sc = vec![0; scratch_len(hf.width(), hf.height())];
+        let n = r.count(&mut sc).unwrap();
+        let mut tv = vec![[0.0; 3]; n.vertices];
+        let mut tt = vec![[0; 3]; n.triangles];
+        r.triangles(&mut sc, &mut tv, &mut tt).unwrap();
+        self.per_tile_max = self.per_tile_max.max(n.triangles);
+        let map: Vec<u32> = tv
+            .iter()
+            .map(|p| {
+                let gx = (p[0] / scale.dx).round() as u32 + x0;
+                let gy = (p[1] / scale.dy).round() as u32 + y0;
+                *self.at.entry((gx, gy)).or_insert_with(|| {
+                    self.v
+                        .push([gx as f32 * scale.dx, gy as f32 * scale.dy, p[2]]);
+                    (self.v.len() - 1) as u32
+                })
+            })
+            .collect();
+        self.t
+            .extend(tt.iter().map(|tri| tri.map(|i| map[i as usize])));
+    }
+}
+
 /// Meshes every tile at `e` and welds the union (world coordinates of the whole map).
 fn union(tiles: &[Vec<Tile>], scale: Scale, e: f32) -> (Vec<[f32; 3]>, Vec<[u32; 3]>, usize) {
-    let mut at: HashMap<(u32, u32), u32> = HashMap::new();
-    let (mut v, mut t) = (Vec::new(), Vec::new());
-    let mut per_tile_max = 0;
+    let mut weld = Weld::default();
     for tile in tiles.iter().flatten() {
         let hf = Heightfield::with_scale(&tile.s, tile.w, tile.h, scale).unwrap();
         // The merged data as a hierarchy (`renest` with no side only wraps the arrays).
         let (mut te, mut tr) = (tile.e.clone(), tile.r.clone());
         let h = renest(&hf, &mut te, &mut tr, &[], PreprocessOptions::default()).unwrap();
-        let r = Refiner::new(&h, &hf, Criterion::MaxError(e)).unwrap();
-        let mut sc = vec![0; scratch_len(tile.w, tile.h)];
-        let n = r.count(&mut sc).unwrap();
-        let mut tv = vec![[0.0; 3]; n.vertices];
-        let mut tt = vec![[0; 3]; n.triangles];
-        r.triangles(&mut sc, &mut tv, &mut tt).unwrap();
-        per_tile_max = per_tile_max.max(n.triangles);
-        let map: Vec<u32> = tv
-            .iter()
-            .map(|p| {
-                let gx = (p[0] / scale.dx).round() as u32 + tile.x0;
-                let gy = (p[1] / scale.dy).round() as u32 + tile.y0;
-                *at.entry((gx, gy)).or_insert_with(|| {
-                    v.push([gx as f32 * scale.dx, gy as f32 * scale.dy, p[2]]);
-                    (v.len() - 1) as u32
-                })
-            })
-            .collect();
-        t.extend(tt.iter().map(|tri| tri.map(|i| map[i as usize])));
+        weld.add(&h, &hf, Criterion::MaxError(e), (tile.x0, tile.y0));
     }
-    (v, t, per_tile_max)
+    (weld.v, weld.t, weld.per_tile_max)
 }
 
 fn check_union(samples: &[f32], w: u32, h: u32, scale: Scale, tiles: &[Vec<Tile>], e: f32) {
@@ -248,33 +283,15 @@ fn random_small_maps_in_tiles() {
 /// Meshes every tile view-dependently for the same `view` (the map's world coordinates; each
 /// tile gets its grid origin) and welds the union.
 fn union_view(tiles: &[Vec<Tile>], scale: Scale, view: View) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let mut at: HashMap<(u32, u32), u32> = HashMap::new();
-    let (mut v, mut t) = (Vec::new(), Vec::new());
+    let mut weld = Weld::default();
     for tile in tiles.iter().flatten() {
         let hf = Heightfield::with_scale(&tile.s, tile.w, tile.h, scale).unwrap();
         let (mut te, mut tr) = (tile.e.clone(), tile.r.clone());
         let h = renest(&hf, &mut te, &mut tr, &[], PreprocessOptions::default()).unwrap();
         let c = Criterion::View(view.with_grid_origin(tile.x0, tile.y0));
-        let r = Refiner::new(&h, &hf, c).unwrap();
-        let mut sc = vec![0; scratch_len(tile.w, tile.h)];
-        let n = r.count(&mut sc).unwrap();
-        let mut tv = vec![[0.0; 3]; n.vertices];
-        let mut tt = vec![[0; 3]; n.triangles];
-        r.triangles(&mut sc, &mut tv, &mut tt).unwrap();
-        let map: Vec<u32> = tv
-            .iter()
-            .map(|p| {
-                let gx = (p[0] / scale.dx).round() as u32 + tile.x0;
-                let gy = (p[1] / scale.dy).round() as u32 + tile.y0;
-                *at.entry((gx, gy)).or_insert_with(|| {
-                    v.push([gx as f32 * scale.dx, gy as f32 * scale.dy, p[2]]);
-                    (v.len() - 1) as u32
-                })
-            })
-            .collect();
-        t.extend(tt.iter().map(|tri| tri.map(|i| map[i as usize])));
+        weld.add(&h, &hf, c, (tile.x0, tile.y0));
     }
-    (v, t)
+    (weld.v, weld.t)
 }
 
 #[test]
@@ -525,45 +542,19 @@ fn cut_compact(samples: &[f32], w: u32, h: u32, size: u32, scale: Scale) -> Vec<
 
 /// The border protocol in the compact layout; returns the number of rounds.
 fn exchange_compact(tiles: &mut [Vec<CompactTile>], scale: Scale) -> usize {
-    let (rows, cols) = (tiles.len(), tiles[0].len());
-    for round in 1..=32 {
-        let mut out: HashMap<(usize, usize, Side), Vec<u16>> = HashMap::new();
-        for (r, row) in tiles.iter().enumerate() {
-            for (c, t) in row.iter().enumerate() {
-                for side in Side::ALL {
-                    if neighbour(rows, cols, r, c, side).is_some() {
-                        let mut be = vec![0; border_len(t.w, t.h, side)];
-                        export_border_compact(t.w, t.h, &t.e, side, &mut be).unwrap();
-                        out.insert((r, c, side), be);
-                    }
-                }
-            }
-        }
-        let mut raised = 0;
-        for (r, row) in tiles.iter_mut().enumerate() {
-            for (c, t) in row.iter_mut().enumerate() {
-                let mut merged = Vec::new();
-                for side in Side::ALL {
-                    if let Some((nr, nc)) = neighbour(rows, cols, r, c, side) {
-                        let be = &out[&(nr, nc, side.opposite())];
-                        let k = merge_border_compact(t.w, t.h, &mut t.e, side, be).unwrap();
-                        if k > 0 {
-                            merged.push(side);
-                        }
-                        raised += k;
-                    }
-                }
-                if !merged.is_empty() {
-                    let hf = Heightfield::with_scale(&t.s, t.w, t.h, scale).unwrap();
-                    renest_compact(&hf, &mut t.e, &merged).unwrap();
-                }
-            }
-        }
-        if raised == 0 {
-            return round;
-        }
-    }
-    panic!("the compact border protocol did not settle in 32 rounds");
+    protocol(
+        tiles,
+        |t, side| {
+            let mut be = vec![0; border_len(t.w, t.h, side)];
+            export_border_compact(t.w, t.h, &t.e, side, &mut be).unwrap();
+            be
+        },
+        |t, side, be| merge_border_compact(t.w, t.h, &mut t.e, side, be).unwrap(),
+        |t, merged| {
+            let hf = Heightfield::with_scale(&t.s, t.w, t.h, scale).unwrap();
+            renest_compact(&hf, &mut t.e, merged).unwrap();
+        },
+    )
 }
 
 /// Meshes every compact tile (`view` given: view-dependent with the tile's grid origin and the
@@ -574,8 +565,7 @@ fn union_compact(
     e: f32,
     view: Option<View>,
 ) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let mut at: HashMap<(u32, u32), u32> = HashMap::new();
-    let (mut v, mut t) = (Vec::new(), Vec::new());
+    let mut weld = Weld::default();
     for tile in tiles.iter().flatten() {
         let hf = Heightfield::with_scale(&tile.s, tile.w, tile.h, scale).unwrap();
         let mut te = tile.e.clone();
@@ -584,26 +574,9 @@ fn union_compact(
             Some(v) => Criterion::View(v.with_grid_origin(tile.x0, tile.y0)),
             None => Criterion::MaxError(e),
         };
-        let r = Refiner::new(&h, &hf, c).unwrap();
-        let mut sc = vec![0; scratch_len(tile.w, tile.h)];
-        let n = r.count(&mut sc).unwrap();
-        let mut tv = vec![[0.0; 3]; n.vertices];
-        let mut tt = vec![[0; 3]; n.triangles];
-        r.triangles(&mut sc, &mut tv, &mut tt).unwrap();
-        let map: Vec<u32> = tv
-            .iter()
-            .map(|p| {
-                let gx = (p[0] / scale.dx).round() as u32 + tile.x0;
-                let gy = (p[1] / scale.dy).round() as u32 + tile.y0;
-                *at.entry((gx, gy)).or_insert_with(|| {
-                    v.push([gx as f32 * scale.dx, gy as f32 * scale.dy, p[2]]);
-                    (v.len() - 1) as u32
-                })
-            })
-            .collect();
-        t.extend(tt.iter().map(|tri| tri.map(|i| map[i as usize])));
+        weld.add(&h, &hf, c, (tile.x0, tile.y0));
     }
-    (v, t)
+    (weld.v, weld.t)
 }
 
 #[test]
