@@ -1,6 +1,9 @@
 //! `relief diagram`: every kind writes a PNG equal to the library's drawing of the same core
 //! state; bad input is one line on stderr and exit code 2.
 
+mod common;
+use common::relief;
+
 use relief_core::glam::DVec2;
 use relief_core::refine::{preprocess, Criterion};
 use relief_core::Heightfield;
@@ -8,14 +11,7 @@ use relief_skia::dda::DdaSpec;
 use relief_skia::refine::RefineInput;
 use relief_skia::{hillshade, DiagramOptions, HillshadeOptions, Pixmap};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn relief(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_relief"))
-        .args(args)
-        .output()
-        .expect("run relief")
-}
+use std::process::Output;
 
 const W: u32 = 33;
 

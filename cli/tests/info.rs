@@ -1,36 +1,7 @@
 //! `relief info` on the bundled DEM, on the real DEMs beside the repository, and on bad input.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn relief(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_relief"))
-        .args(args)
-        .output()
-        .expect("run relief")
-}
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn bundled() -> String {
-    repo().join("data/puget_sound_1k.png").display().to_string()
-}
-
-/// Asserts a failure: exit code 2, exactly one line on stderr, no panic, nothing on stdout.
-fn assert_one_line_error(out: &Output, needle: &str) {
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
-    assert_eq!(err.lines().count(), 1, "not one line: {err:?}");
-    assert!(err.starts_with("relief: error: "), "{err:?}");
-    assert!(!err.contains("panicked"), "{err:?}");
-    assert!(
-        err.to_lowercase().contains(&needle.to_lowercase()),
-        "{err:?} should mention {needle:?}"
-    );
-    assert!(out.stdout.is_empty());
-}
+mod common;
+use common::{assert_one_line_error, bundled, relief, repo};
 
 #[test]
 fn info_on_bundled_dem_json() {

@@ -1,15 +1,10 @@
 //! `relief mesh` (SOAR refinement): OBJ and JSON agree, the measured error is within E, the
 //! view-dependent form runs, and bad input is one line on stderr with exit code 2.
 
-use std::path::Path;
-use std::process::{Command, Output};
+mod common;
+use common::{json, relief};
 
-fn relief(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_relief"))
-        .args(args)
-        .output()
-        .expect("run relief")
-}
+use std::path::Path;
 
 fn write_dem(dir: &Path, w: u32, h: u32) -> String {
     let p = dir.join(format!("dem_{w}x{h}.f32"));
@@ -23,15 +18,6 @@ fn write_dem(dir: &Path, w: u32, h: u32) -> String {
         .collect();
     std::fs::write(&p, bytes).unwrap();
     p.to_str().unwrap().to_string()
-}
-
-fn json(o: &Output) -> serde_json::Value {
-    assert!(
-        o.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    serde_json::from_slice(&o.stdout).expect("one JSON object")
 }
 
 fn obj_counts(p: &Path) -> (usize, usize) {

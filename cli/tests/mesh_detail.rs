@@ -2,17 +2,11 @@
 //! crack-free, its vertices are samples of the composed surface, and the JSON agrees with it;
 //! bad detail options are one line on stderr with exit code 2.
 
+mod common;
+use common::{read_obj, relief, write_f32};
+
 use relief_core::{Composed, Heightfield, Scale, Terrain};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn relief(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_relief"))
-        .args(args)
-        .output()
-        .expect("run relief")
-}
 
 fn base_samples(w: u32, h: u32) -> Vec<f32> {
     (0..w * h)
@@ -34,35 +28,6 @@ fn detail_samples(w: u32, h: u32) -> Vec<f32> {
                 - 0.5
         })
         .collect()
-}
-
-fn write_f32(p: &Path, v: &[f32]) -> String {
-    let bytes: Vec<u8> = v.iter().flat_map(|z| z.to_le_bytes()).collect();
-    std::fs::write(p, bytes).unwrap();
-    p.to_str().unwrap().to_string()
-}
-
-fn read_obj(p: &Path) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let s = std::fs::read_to_string(p).unwrap();
-    let mut v = Vec::new();
-    let mut t = Vec::new();
-    for l in s.lines() {
-        let f: Vec<&str> = l.split_whitespace().collect();
-        match f.first() {
-            Some(&"v") => v.push([
-                f[1].parse().unwrap(),
-                f[2].parse().unwrap(),
-                f[3].parse().unwrap(),
-            ]),
-            Some(&"f") => t.push([
-                f[1].parse::<u32>().unwrap() - 1,
-                f[2].parse::<u32>().unwrap() - 1,
-                f[3].parse::<u32>().unwrap() - 1,
-            ]),
-            _ => {}
-        }
-    }
-    (v, t)
 }
 
 #[test]

@@ -2,17 +2,11 @@
 //! without skirts): the edited mesh equals the mesh of a DEM edited beforehand, and the tiles'
 //! union is crack-free, within E and reported consistently.
 
+mod common;
+use common::{json, read_obj, relief, write_f32};
+
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
 use std::collections::HashMap;
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn relief(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_relief"))
-        .args(args)
-        .output()
-        .expect("run relief")
-}
 
 fn heights(w: u32, h: u32) -> Vec<f32> {
     (0..w * h)
@@ -22,12 +16,6 @@ fn heights(w: u32, h: u32) -> Vec<f32> {
                 + 3.0 * (x * 0.7).sin() * (y * 0.4).cos()
         })
         .collect()
-}
-
-fn write(p: &Path, s: &[f32]) -> String {
-    let bytes: Vec<u8> = s.iter().flat_map(|z| z.to_le_bytes()).collect();
-    std::fs::write(p, bytes).unwrap();
-    p.to_str().unwrap().to_string()
 }
 
 /// The crater of issue 6, written out here (not the library's): samples at distance r < radius
@@ -43,25 +31,16 @@ fn dig(s: &mut [f32], w: u32, x: f32, y: f32, radius: f32, depth: f32) {
     }
 }
 
-fn json(o: &Output) -> serde_json::Value {
-    assert!(
-        o.status.success(),
-        "stderr: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    serde_json::from_slice(&o.stdout).expect("one JSON object")
-}
-
 #[test]
 fn edited_mesh_equals_mesh_of_the_dem_edited_beforehand() {
     let dir = tempfile::tempdir().unwrap();
     let (w, h) = (33u32, 21u32);
     let s = heights(w, h);
-    let dem = write(&dir.path().join("dem.f32"), &s);
+    let dem = write_f32(&dir.path().join("dem.f32"), &s);
     let mut edited = s.clone();
     dig(&mut edited, w, 10.0, 7.0, 4.0, 5.0);
     dig(&mut edited, w, 25.5, 15.0, 2.5, -3.0);
-    let dem2 = write(&dir.path().join("edited.f32"), &edited);
+    let dem2 = write_f32(&dir.path().join("edited.f32"), &edited);
     let (ws, hs) = (w.to_string(), h.to_string());
     let raw = ["--format", "raw-f32", "--width", &ws, "--height", &hs];
     for layout in ["full", "compact"] {
@@ -131,29 +110,11 @@ fn edited_mesh_equals_mesh_of_the_dem_edited_beforehand() {
     assert_eq!(String::from_utf8_lossy(&o.stderr).trim().lines().count(), 1);
 }
 
-fn read_obj(p: &Path) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let s = std::fs::read_to_string(p).unwrap();
-    let mut v = Vec::new();
-    let mut t = Vec::new();
-    for l in s.lines() {
-        let f: Vec<&str> = l.split_whitespace().collect();
-        match f.first() {
-            Some(&"v") => v.push([f[1], f[2], f[3]].map(|x| x.parse::<f32>().unwrap())),
-            Some(&"f") => t.push(
-                [f[1], f[2], f[3]]
-                    .map(|x| x.split('/').next().unwrap().parse::<u32>().unwrap() - 1),
-            ),
-            _ => {}
-        }
-    }
-    (v, t)
-}
-
 #[test]
 fn tiles_union_is_crack_free_and_within_e() {
     let dir = tempfile::tempdir().unwrap();
     let (w, h) = (41u32, 30u32); // tiles of 9: the last row of tiles is 6 samples high
-    let dem = write(&dir.path().join("dem.f32"), &heights(w, h));
+    let dem = write_f32(&dir.path().join("dem.f32"), &heights(w, h));
     let (ws, hs) = (w.to_string(), h.to_string());
     let out = dir.path().join("tiles");
     let os = out.to_str().unwrap();
@@ -249,7 +210,7 @@ fn tiles_union_is_crack_free_and_within_e() {
 fn view_dependent_tiles_in_both_layouts_weld_crack_free() {
     let dir = tempfile::tempdir().unwrap();
     let (w, h) = (41u32, 30u32);
-    let dem = write(&dir.path().join("dem.f32"), &heights(w, h));
+    let dem = write_f32(&dir.path().join("dem.f32"), &heights(w, h));
     let (ws, hs) = (w.to_string(), h.to_string());
     let out = dir.path().join("vd");
     let os = out.to_str().unwrap();

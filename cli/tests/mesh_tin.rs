@@ -1,49 +1,13 @@
 //! `relief mesh --method tin`: OBJ and JSON on the bundled DEM, vertex budgets, and bad input as
 //! one line on stderr with exit code 2.
 
+mod common;
+use common::{bundled, json, read_obj, relief};
+
 use relief_tin::{Tin, TinOptions};
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn relief(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_relief"))
-        .args(args)
-        .output()
-        .expect("run relief")
-}
-
-fn bundled() -> String {
-    let p: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    p.to_str().unwrap().to_string()
-}
+use std::path::Path;
 
 const SCALE: [&str; 6] = ["--dx", "160", "--dy", "160", "--z-scale", "0.1"];
-
-fn json(o: &Output) -> serde_json::Value {
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    serde_json::from_slice(&o.stdout).unwrap()
-}
-
-fn obj(p: &Path) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
-    let text = std::fs::read_to_string(p).unwrap();
-    let mut v = Vec::new();
-    let mut f = Vec::new();
-    for l in text.lines() {
-        let mut it = l.split_whitespace();
-        match it.next() {
-            Some("v") => {
-                let c: Vec<f32> = it.map(|t| t.parse().unwrap()).collect();
-                v.push([c[0], c[1], c[2]]);
-            }
-            Some("f") => {
-                let c: Vec<u32> = it.map(|t| t.parse::<u32>().unwrap() - 1).collect();
-                f.push([c[0], c[1], c[2]]);
-            }
-            _ => {}
-        }
-    }
-    (v, f)
-}
 
 #[test]
 fn tin_mesh_of_the_bundled_dem_meets_the_error() {
@@ -70,7 +34,7 @@ fn tin_mesh_of_the_bundled_dem_meets_the_error() {
     d.scale = d.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
     let hf = d.heightfield().unwrap();
     let tin = Tin::build(&hf, &TinOptions::default().with_max_error(50.0)).unwrap();
-    let (v, f) = obj(&out);
+    let (v, f) = read_obj(&out);
     assert_eq!(j["vertices"].as_u64(), Some(v.len() as u64));
     assert_eq!(j["triangles"].as_u64(), Some(f.len() as u64));
     assert_eq!(v.len(), tin.vertices().len());
@@ -105,7 +69,7 @@ fn tin_vertex_budget() {
     let j = json(&o);
     assert_eq!(j["vertices"].as_u64(), Some(500));
     assert_eq!(j["stop"].as_str(), Some("vertex-budget"));
-    assert_eq!(obj(&out).0.len(), 500);
+    assert_eq!(read_obj(&out).0.len(), 500);
 }
 
 #[test]

@@ -1,16 +1,12 @@
 //! `relief rbf`: outputs, agreement with the core, and bad input.
 
+mod common;
+use common::relief;
+
 use relief_core::glam::Vec2;
 use relief_core::rbf::{AdaptiveGrid, Cell, InfluenceSets, Rbf, RbfOptions};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn relief(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_relief"))
-        .args(args)
-        .output()
-        .expect("run relief")
-}
+use std::process::Output;
 
 fn write_raw(path: &Path, values: &[f32]) {
     let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();

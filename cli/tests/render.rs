@@ -3,39 +3,10 @@
 //! Without any GPU adapter the GPU cases print a loud notice and return, unless
 //! `RELIEF_REQUIRE_GPU=1` (CI), which makes them fail.
 
+mod common;
+use common::{assert_one_line_error, bundled, relief_env};
+
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn relief(args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut c = Command::new(env!("CARGO_BIN_EXE_relief"));
-    c.args(args);
-    // Mesa prints a warning line of its own on stderr without a runtime dir (CI sets one).
-    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
-        c.env("XDG_RUNTIME_DIR", std::env::temp_dir());
-    }
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c.output().expect("run relief")
-}
-
-fn bundled() -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data/puget_sound_1k.png")
-        .display()
-        .to_string()
-}
-
-fn assert_one_line_error(out: &Output, needle: &str) {
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
-    assert_eq!(err.lines().count(), 1, "not one line: {err:?}");
-    assert!(err.starts_with("relief: error: "), "{err:?}");
-    assert!(
-        err.to_lowercase().contains(&needle.to_lowercase()),
-        "{err:?} should mention {needle:?}"
-    );
-}
 
 const CAM: [&str; 8] = [
     "--eye",
@@ -72,7 +43,7 @@ fn render(dir: &Path, name: &str, extra: &[&str]) -> Option<(serde_json::Value, 
     ];
     args.extend_from_slice(&CAM);
     args.extend_from_slice(extra);
-    let out = relief(&args, &[]);
+    let out = relief_env(&args, &[]);
     let err = String::from_utf8_lossy(&out.stderr);
     if out.status.code() == Some(2) && err.contains("no GPU adapter") {
         assert!(
@@ -151,7 +122,7 @@ fn gpu_and_cpu_depth_agree_and_json_lists_the_passes() {
     // Silhouette partitioning needs the terrain in front: a camera south of the map.
     let dem = bundled();
     let png = dir.path().join("sil.png").display().to_string();
-    let out = relief(
+    let out = relief_env(
         &[
             "render",
             "--dem",
@@ -190,7 +161,7 @@ fn gpu_and_cpu_depth_agree_and_json_lists_the_passes() {
     let depth_of = |backend: &str| -> Vec<f32> {
         let d = dir.path().join(format!("sil_{backend}.f32"));
         let d = d.display().to_string();
-        let out = relief(
+        let out = relief_env(
             &[
                 "render",
                 "--dem",
@@ -300,31 +271,34 @@ fn no_adapter_unknown_effects_and_silhouette_are_one_line_errors() {
     let mut args = vec!["render", "--dem", &dem, "--out", &png];
     args.extend_from_slice(&CAM);
     // dx12 is not compiled in on Linux: wgpu finds no adapter at all.
-    let out = relief(&args, &[("WGPU_BACKEND", "dx12")]);
+    let out = relief_env(&args, &[("WGPU_BACKEND", "dx12")]);
     assert_one_line_error(&out, "no GPU adapter");
     let mut bad = args.clone();
     bad.extend_from_slice(&["--effects", "lighting,sparkles"]);
-    assert_one_line_error(&relief(&bad, &[]), "unknown effect 'sparkles'");
+    assert_one_line_error(&relief_env(&bad, &[]), "unknown effect 'sparkles'");
     // The CPU renders silhouettes too, but only with the whole terrain in front (CAM is above
     // the map).
     let mut sil = args.clone();
     sil.extend_from_slice(&["--method", "silhouette", "--backend", "cpu"]);
-    assert_one_line_error(&relief(&sil, &[]), "whole terrain in front of the camera");
+    assert_one_line_error(
+        &relief_env(&sil, &[]),
+        "whole terrain in front of the camera",
+    );
     let mut cas = args.clone();
     cas.extend_from_slice(&["--method", "cascades", "--backend", "cpu"]);
-    assert_one_line_error(&relief(&cas, &[]), "need --backend gpu");
+    assert_one_line_error(&relief_env(&cas, &[]), "need --backend gpu");
     let mut cas_fog = args.clone();
     cas_fog.extend_from_slice(&["--method", "cascades", "--effects", "fog"]);
-    let out = relief(&cas_fog, &[]);
+    let out = relief_env(&cas_fog, &[]);
     if !String::from_utf8_lossy(&out.stderr).contains("no GPU adapter") {
         assert_one_line_error(&out, "take only the depth output effect");
     }
     let mut cpu = args.clone();
     cpu.extend_from_slice(&["--backend", "cpu", "--effects", "depth"]);
-    assert_one_line_error(&relief(&cpu, &[]), "needs --backend gpu");
+    assert_one_line_error(&relief_env(&cpu, &[]), "needs --backend gpu");
     let mut ws = args.clone();
     ws.extend_from_slice(&["--water-surface", "/nonexistent.f32"]);
-    assert_one_line_error(&relief(&ws, &[]), "needs --effects water");
+    assert_one_line_error(&relief_env(&ws, &[]), "needs --effects water");
     assert!(!dir.path().join("x.png").exists());
 }
 
@@ -368,7 +342,7 @@ fn water_surface_file_is_rendered_and_checked() {
         &s,
     ];
     args.extend_from_slice(&CAM);
-    let out = relief(&args, &[]);
+    let out = relief_env(&args, &[]);
     let err = String::from_utf8_lossy(&out.stderr);
     if err.contains("no GPU adapter") {
         return;

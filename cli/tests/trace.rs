@@ -1,34 +1,10 @@
 //! `relief trace` on the bundled DEM: every method, the depth file per CONVENTIONS.md, the JSON
 //! fields, and one-line errors with exit code 2 on bad input.
 
+mod common;
+use common::{assert_one_line_error, bundled, relief};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn relief(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_relief"))
-        .args(args)
-        .output()
-        .expect("run relief")
-}
-
-fn bundled() -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../data/puget_sound_1k.png")
-        .display()
-        .to_string()
-}
-
-fn assert_one_line_error(out: &Output, needle: &str) {
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
-    assert_eq!(err.lines().count(), 1, "not one line: {err:?}");
-    assert!(err.starts_with("relief: error: "), "{err:?}");
-    assert!(!err.contains("panicked"), "{err:?}");
-    assert!(
-        err.to_lowercase().contains(&needle.to_lowercase()),
-        "{err:?} should mention {needle:?}"
-    );
-}
 
 fn trace(dir: &Path, method: &str, surface: &str, extra: &[&str]) -> (Vec<f32>, serde_json::Value) {
     let out_path: PathBuf = dir.join(format!("{method}-{surface}.f32"));
