@@ -302,6 +302,31 @@ fn no_adapter_unknown_effects_and_silhouette_are_one_line_errors() {
     assert!(!dir.path().join("x.png").exists());
 }
 
+/// On an adapter that lacks optional capabilities (wgpu's GL backend on Mesa cannot copy depth
+/// textures, which the mesh method's depth readback needs) every method ends either in a
+/// picture or in one line with exit code 2, never in a panic. Without any GL adapter the run is
+/// a one-line "no GPU adapter" error, which passes too.
+#[test]
+fn downlevel_adapter_is_a_one_line_error_not_a_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = bundled();
+    let png = dir.path().join("gl.png").display().to_string();
+    for method in ["mesh", "maxmip", "march"] {
+        let mut args = vec!["render", "--dem", &dem, "--dx", "160", "--dy", "160"];
+        args.extend_from_slice(&["--z-scale", "0.1", "--method", method, "--out", &png]);
+        args.extend_from_slice(&CAM);
+        let out = relief_env(&args, &[("WGPU_BACKEND", "gl")]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        eprintln!(
+            "{method} on WGPU_BACKEND=gl: {:?} {err:?}",
+            out.status.code()
+        );
+        if !out.status.success() {
+            assert_one_line_error(&out, "");
+        }
+    }
+}
+
 #[test]
 fn water_surface_file_is_rendered_and_checked() {
     let dir = tempfile::tempdir().unwrap();

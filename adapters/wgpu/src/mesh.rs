@@ -136,6 +136,9 @@ impl DepthTarget {
             usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        // Some adapters (wgpu's GL backend on Mesa, among others) cannot copy depth textures:
+        // capture the validation error instead of letting wgpu's default handler panic.
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut enc = device.create_command_encoder(&Default::default());
         enc.copy_texture_to_buffer(
             wgpu::TexelCopyTextureInfo {
@@ -158,7 +161,19 @@ impl DepthTarget {
                 depth_or_array_layers: 1,
             },
         );
-        queue.submit([enc.finish()]);
+        let commands = enc.finish();
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(if aspect == wgpu::TextureAspect::DepthOnly {
+                Error::Unsupported(
+                    "this GPU adapter cannot copy a depth texture to a buffer (wgpu downlevel \
+                     flag DEPTH_TEXTURE_AND_BUFFER_COPIES): use a Vulkan adapter, e.g. Mesa \
+                     lavapipe (mesa-vulkan-drivers)",
+                )
+            } else {
+                Error::Readback(e.to_string().lines().next().unwrap_or("").to_string())
+            });
+        }
+        queue.submit([commands]);
         let bytes = util::map_and_read(device, &staging, size)?;
         let mut out = Vec::with_capacity(self.width as usize * self.height as usize);
         for y in 0..self.height as usize {
@@ -177,7 +192,9 @@ impl DepthTarget {
         self.read_texture(device, queue, &self.color, wgpu::TextureAspect::All)
     }
 
-    /// Reads the reversed-Z depth buffer back (waits for the GPU).
+    /// Reads the reversed-Z depth buffer back (waits for the GPU). [`Error::Unsupported`] on
+    /// adapters that cannot copy depth textures (wgpu's downlevel flag
+    /// `DEPTH_TEXTURE_AND_BUFFER_COPIES`, missing on wgpu's GL backend on Mesa, for example).
     pub fn read_depth(
         &self,
         device: &wgpu::Device,
