@@ -1012,28 +1012,72 @@ fn silhouette_partitioning_matches_its_cpu_model_and_approximates_the_exact_trac
     assert!(pass.encode(&g.queue, &mut enc, &t, &cam).is_err());
 }
 
+/// The caller-owned storage of an adaptive-grid RBF (seed 002) of a heightfield: cells, sample
+/// index and influence sets, sized by the core's `*_len` functions.
+struct RbfBuffers {
+    w: u32,
+    h: u32,
+    cells: Vec<relief_core::rbf::Cell>,
+    index: Vec<u32>,
+    offsets: Vec<u32>,
+    entries: Vec<u32>,
+    ropts: relief_core::rbf::RbfOptions,
+}
+
+impl RbfBuffers {
+    /// Fits the adaptive grid of `hf` with `gopts`.
+    fn new(hf: &Heightfield<'_, f32>, gopts: &relief_core::rbf::GridOptions) -> Self {
+        use relief_core::rbf::{
+            adaptive_grid_bound, build_adaptive_grid, AdaptiveGrid, Cell, InfluenceSets, RbfOptions,
+        };
+        let (w, h) = (hf.width(), hf.height());
+        let mut cells = vec![Cell::default(); adaptive_grid_bound(w, h).unwrap()];
+        let n = build_adaptive_grid(hf, gopts, &mut cells).unwrap();
+        cells.truncate(n);
+        let mut index = vec![0u32; (w * h) as usize];
+        let ropts = RbfOptions::default();
+        let grid = AdaptiveGrid::new(w, h, &cells, &mut index).unwrap();
+        let offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
+        let entries = vec![0u32; InfluenceSets::entries_len(&grid, &ropts).unwrap()];
+        RbfBuffers {
+            w,
+            h,
+            cells,
+            index,
+            offsets,
+            entries,
+            ropts,
+        }
+    }
+
+    /// The RBF over these buffers and its influence sets.
+    fn rbf(
+        &mut self,
+    ) -> (
+        relief_core::rbf::Rbf<'_>,
+        relief_core::rbf::InfluenceSets<'_>,
+    ) {
+        use relief_core::rbf::{AdaptiveGrid, InfluenceSets, Rbf};
+        let grid = AdaptiveGrid::new(self.w, self.h, &self.cells, &mut self.index).unwrap();
+        let sets =
+            InfluenceSets::build(&grid, &self.ropts, &mut self.offsets, &mut self.entries).unwrap();
+        (Rbf::new(grid, sets, &self.ropts).unwrap(), sets)
+    }
+}
+
 #[test]
 fn rbf_cascade_discretization_matches_the_cpu() {
-    use relief_core::rbf::{
-        adaptive_grid_bound, build_adaptive_grid, discretize, fit_cascades, AdaptiveGrid,
-        CascadeOptions, Cell, GridOptions, InfluenceSets, Rbf, RbfOptions,
-    };
+    use relief_core::rbf::{discretize, fit_cascades, CascadeOptions, GridOptions};
     let Some(g) = gpu() else { return };
     let (w, h) = (257, 257);
     let s = synthetic(w, h);
     let scale = Scale::default().with_spacing(2.0, 2.0);
     let hf = Heightfield::with_scale(&s, w, h, scale).unwrap();
-    let gopts = GridOptions::default().with_max_error(2.0).with_cells(1, 32);
-    let mut cells = vec![Cell::default(); adaptive_grid_bound(w, h).unwrap()];
-    let n = build_adaptive_grid(&hf, &gopts, &mut cells).unwrap();
-    cells.truncate(n);
-    let mut index = vec![0u32; (w * h) as usize];
-    let grid = AdaptiveGrid::new(w, h, &cells, &mut index).unwrap();
-    let ropts = RbfOptions::default();
-    let mut offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
-    let mut entries = vec![0u32; InfluenceSets::entries_len(&grid, &ropts).unwrap()];
-    let sets = InfluenceSets::build(&grid, &ropts, &mut offsets, &mut entries).unwrap();
-    let rbf = Rbf::new(grid, sets, &ropts).unwrap();
+    let mut store = RbfBuffers::new(
+        &hf,
+        &GridOptions::default().with_max_error(2.0).with_cells(1, 32),
+    );
+    let (rbf, sets) = store.rbf();
     let cam = Camera::new(
         Vec3::new(20.0, 30.0, 150.0),
         Vec3::new(400.0, 350.0, 40.0),
@@ -1143,10 +1187,7 @@ fn silhouette_map_matches_the_core_cpu_silhouette_map() {
 
 #[test]
 fn cascade_ray_cast_matches_the_cpu_construction() {
-    use relief_core::rbf::{
-        adaptive_grid_bound, build_adaptive_grid, discretize, fit_cascades, AdaptiveGrid,
-        CascadeOptions, Cell, GridOptions, InfluenceSets, Rbf, RbfOptions,
-    };
+    use relief_core::rbf::{discretize, fit_cascades, CascadeOptions, GridOptions};
     use relief_wgpu::cascade::CascadeRayCast;
     let Some(g) = gpu() else { return };
     let (w, h) = (257, 257);
@@ -1154,16 +1195,8 @@ fn cascade_ray_cast_matches_the_cpu_construction() {
     let scale = Scale::default().with_spacing(2.0, 2.0);
     let hf = Heightfield::with_scale(&s, w, h, scale).unwrap();
     let gopts = GridOptions::default().with_max_error(1.0).with_cells(1, 16);
-    let mut cells = vec![Cell::default(); adaptive_grid_bound(w, h).unwrap()];
-    let n = build_adaptive_grid(&hf, &gopts, &mut cells).unwrap();
-    cells.truncate(n);
-    let mut index = vec![0u32; (w * h) as usize];
-    let grid = AdaptiveGrid::new(w, h, &cells, &mut index).unwrap();
-    let ropts = RbfOptions::default();
-    let mut offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
-    let mut entries = vec![0u32; InfluenceSets::entries_len(&grid, &ropts).unwrap()];
-    let sets = InfluenceSets::build(&grid, &ropts, &mut offsets, &mut entries).unwrap();
-    let rbf = Rbf::new(grid, sets, &ropts).unwrap();
+    let mut store = RbfBuffers::new(&hf, &gopts);
+    let (rbf, sets) = store.rbf();
     let cam = Camera::new(
         Vec3::new(20.0, 30.0, 150.0),
         Vec3::new(150.0, 130.0, 0.0),
@@ -1338,10 +1371,7 @@ fn cascade_ray_cast_matches_the_cpu_construction() {
 
 #[test]
 fn water_surface_from_the_rbf_approximation_matches_the_cpu() {
-    use relief_core::rbf::{
-        adaptive_grid_bound, build_adaptive_grid, AdaptiveGrid, Cell, GridOptions, InfluenceSets,
-        Rbf, RbfOptions,
-    };
+    use relief_core::rbf::GridOptions;
     let Some(g) = gpu() else { return };
     let (w, h) = (129, 129);
     let s = synthetic(w, h);
@@ -1353,21 +1383,11 @@ fn water_surface_from_the_rbf_approximation_matches_the_cpu() {
         .map(|i| 62.0 + 6.0 * ((i % w) as f32 * 0.05).sin())
         .collect();
     let lhf = Heightfield::with_scale(&levels, w, h, scale).unwrap();
-    let mut cells = vec![Cell::default(); adaptive_grid_bound(w, h).unwrap()];
-    let n = build_adaptive_grid(
+    let mut store = RbfBuffers::new(
         &lhf,
         &GridOptions::default().with_max_error(0.5).with_cells(1, 16),
-        &mut cells,
-    )
-    .unwrap();
-    cells.truncate(n);
-    let mut index = vec![0u32; (w * h) as usize];
-    let grid = AdaptiveGrid::new(w, h, &cells, &mut index).unwrap();
-    let ropts = RbfOptions::default();
-    let mut offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
-    let mut entries = vec![0u32; InfluenceSets::entries_len(&grid, &ropts).unwrap()];
-    let sets = InfluenceSets::build(&grid, &ropts, &mut offsets, &mut entries).unwrap();
-    let rbf = Rbf::new(grid, sets, &ropts).unwrap();
+    );
+    let (rbf, _) = store.rbf();
     let water: Vec<f32> = (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| {
