@@ -2,7 +2,8 @@
 //! checks (the peer comparison itself goes through `relief mesh`, see BENCHMARKS.md).
 //!
 //! usage: `cargo run --release -p relief-tin --example tin_time -- RAW.f32 W H REPS E [E ...]`
-//! prints `E triangles max_error best_ms` per E.
+//! prints `E triangles max_error best_ms hash` per E (`hash`: FNV-1a of the vertex and triangle
+//! lists, to check that a change leaves the mesh as it was).
 
 use relief_core::Heightfield;
 use relief_tin::{Tin, TinOptions};
@@ -33,8 +34,13 @@ fn main() {
             tin = Some(t_);
         }
         let tin = tin.expect("reps > 0");
+        let mut hash = 0xcbf2_9ce4_8422_2325u64;
+        let words = tin.vertices().iter().flatten();
+        for &w in words.chain(tin.triangles().iter().flatten()) {
+            hash = (hash ^ u64::from(w)).wrapping_mul(0x0100_0000_01b3);
+        }
         println!(
-            "{e} {} {} {best:.2}",
+            "{e} {} {} {best:.2} {hash:016x}",
             tin.triangles().len(),
             tin.max_error()
         );

@@ -22,7 +22,7 @@
 //! [`mesh_error`](crate::mesh_error) reports.
 
 use crate::heap::FaceHeap;
-use crate::scan::{for_each_span, local_heights, Plane};
+use crate::scan::{for_each_span, local_heights, orient, Plane};
 use crate::MeshError;
 use relief_core::{Error, Terrain};
 use spade::handles::{FixedFaceHandle, FixedVertexHandle, InnerTag};
@@ -194,7 +194,8 @@ fn scan_triangle(heights: &[f32], width: usize, c: [(i64, i64); 3]) -> (f64, u32
     // A lattice triangle of area 1/2 holds no sample but its corners (Pick's theorem: 2A =
     // 2 interior + boundary - 2, and the corners alone give 2A = 1): nothing to read. Most
     // triangles near full resolution are such, and their corner heights are cache misses.
-    if crate::scan::orient(c[0], c[1], c[2]).abs() == 1 {
+    let area2 = orient(c[0], c[1], c[2]).abs();
+    if area2 == 1 {
         return (0.0, c[0].0 as u32, c[0].1 as u32);
     }
     let z = |x: i64, y: i64| {
@@ -212,6 +213,21 @@ fn scan_triangle(heights: &[f32], width: usize, c: [(i64, i64); 3]) -> (f64, u32
     ]) else {
         return best;
     };
+    // Doubled area 2: Pick's theorem leaves one boundary sample besides the corners (2 interior
+    // + boundary = 4), the midpoint of the one edge whose both differences are even.
+    if area2 == 2 {
+        for k in 0..3 {
+            let (p, q) = (c[k], c[(k + 1) % 3]);
+            if (p.0 - q.0) % 2 == 0 && (p.1 - q.1) % 2 == 0 {
+                let (x, y) = ((p.0 + q.0) / 2, (p.1 + q.1) / 2);
+                let d = (z(x, y) - plane.at_row(x, plane.row(y))).abs();
+                if d > 0.0 {
+                    best = (d, x as u32, y as u32);
+                }
+                return best;
+            }
+        }
+    }
     let mut best_err = 0.0f64;
     let (mut bx, mut by) = (c[0].0, c[0].1);
     for_each_span(c[0], c[1], c[2], |y, mut lo, mut hi| {
@@ -498,32 +514,73 @@ impl Tin {
 
 #[cfg(test)]
 mod tests {
-    use crate::scan::{for_each_span, orient};
+    use crate::scan::{for_each_span, orient, Plane};
+
+    type Corners = [(i64, i64); 3];
+
+    /// Every lattice triangle of doubled area `area2` with corners in an `n x n` box, with the
+    /// samples `for_each_span` covers (corners included), sorted.
+    fn lattice_triangles(n: i64, area2: i64) -> Vec<(Corners, Vec<(i64, i64)>)> {
+        let pts: Vec<(i64, i64)> = (0..n * n).map(|i| (i % n, i / n)).collect();
+        let mut out = Vec::new();
+        for &a in &pts {
+            for &b in &pts {
+                for &c in &pts {
+                    if orient(a, b, c).abs() == area2 {
+                        let mut covered = Vec::new();
+                        for_each_span(a, b, c, |y, lo, hi| {
+                            covered.extend((lo..=hi).map(|x| (x, y)))
+                        });
+                        covered.sort_unstable();
+                        out.push(([a, b, c], covered));
+                    }
+                }
+            }
+        }
+        out
+    }
 
     /// The fast path of `scan_triangle`: a lattice triangle of doubled area 1 covers no sample
     /// but its corners (checked by rasterising every such triangle with corners in a 5 x 5 box).
     #[test]
     fn unit_area_triangles_cover_only_their_corners() {
-        let pts: Vec<(i64, i64)> = (0..25).map(|i| (i % 5, i / 5)).collect();
-        let mut seen = 0;
-        for &a in &pts {
-            for &b in &pts {
-                for &c in &pts {
-                    if orient(a, b, c).abs() != 1 {
-                        continue;
-                    }
-                    let mut covered = Vec::new();
-                    for_each_span(a, b, c, |y, lo, hi| {
-                        covered.extend((lo..=hi).map(|x| (x, y)))
-                    });
-                    covered.sort_unstable();
-                    let mut corners = vec![a, b, c];
-                    corners.sort_unstable();
-                    assert_eq!(covered, corners, "{a:?} {b:?} {c:?}");
-                    seen += 1;
+        let all = lattice_triangles(5, 1);
+        for (t, covered) in &all {
+            let mut corners = t.to_vec();
+            corners.sort_unstable();
+            assert_eq!(covered, &corners, "{t:?}");
+        }
+        assert!(all.len() > 1000, "{}", all.len());
+    }
+
+    /// The other fast path: a lattice triangle of doubled area 2 covers exactly one sample
+    /// besides its corners, the midpoint of its one edge with both differences even; and
+    /// `scan_triangle` reports that sample's error as the span scan measures it.
+    #[test]
+    fn doubled_area_two_triangles_cover_one_edge_midpoint() {
+        let heights: Vec<f32> = (0..36).map(|i| ((i * 7919) % 23) as f32 * 0.37).collect();
+        let all = lattice_triangles(6, 2);
+        for (t, covered) in &all {
+            let [a, b, c] = *t;
+            let inner: Vec<_> = covered.iter().copied().filter(|s| !t.contains(s)).collect();
+            let even = [(a, b), (b, c), (c, a)]
+                .into_iter()
+                .filter(|(p, q)| (p.0 - q.0) % 2 == 0 && (p.1 - q.1) % 2 == 0)
+                .map(|(p, q)| ((p.0 + q.0) / 2, (p.1 + q.1) / 2))
+                .collect::<Vec<_>>();
+            assert_eq!(inner, even, "{t:?}");
+            // The span scan's answer: plane error at the covered non-corner samples.
+            let z = |p: (i64, i64)| f64::from(heights[(p.1 * 6 + p.0) as usize]);
+            let plane = Plane::new(t.map(|p| (p.0, p.1, z(p)))).unwrap();
+            let mut want = (0.0, a.0 as u32, a.1 as u32);
+            for &(x, y) in &inner {
+                let d = (z((x, y)) - plane.at_row(x, plane.row(y))).abs();
+                if d > want.0 {
+                    want = (d, x as u32, y as u32);
                 }
             }
+            assert_eq!(super::scan_triangle(&heights, 6, *t), want, "{t:?}");
         }
-        assert!(seen > 1000, "{seen}");
+        assert!(all.len() > 1000, "{}", all.len());
     }
 }
