@@ -353,9 +353,10 @@ impl<T: Terrain> RayTracer<'_, T> {
         let ia: [i64; 8] = cast(idx);
         let mut mv = [f32::NEG_INFINITY; 8];
         for (m, &i) in mv.iter_mut().zip(&ia) {
-            *m = usize::try_from(i)
-                .ok()
-                .and_then(|i| mip.data.get(i))
+            // A negative index (idle lanes only) wraps past every buffer length: `None`.
+            *m = mip
+                .data
+                .get(i as u64 as usize)
                 .copied()
                 .unwrap_or(f32::NEG_INFINITY);
         }
