@@ -6,7 +6,9 @@
 # still <= E (bisection in martini_run.mjs), and triangle counts are compared there.
 # Times: best of REPS runs, measured inside each tool (relief: preprocess_ms / refine_ms of
 # `relief mesh --json`, which include allocating the output; martini: createTile / getMesh;
-# pymartini: create_tile / get_mesh).
+# pymartini: create_tile / get_mesh, which allocate fresh output arrays too). relief's
+# refine_reused_ms (the same extraction into the already-touched buffers, as a library user
+# refining every frame gets) is reported next to it, never instead of it.
 #
 # usage: bench-peers/martini/martini_peers.sh   (env: REPS=5, DATA=../shared/data, RELIEF=path)
 # prints one JSON line per tool, DEM and E, then a Markdown table (summary.py).
@@ -55,19 +57,21 @@ for spec in "${specs[@]}"; do
     n=$(.venv/bin/python prep.py "$src" "$fmt" "$raw")
     for e in $ES; do
         for layout in full compact; do
-            bp=""; br=""; line=""
+            bp=""; br=""; bu=""; line=""
             for _ in $(seq "$REPS"); do
                 line=$("$RELIEF" mesh --dem "$raw" --format raw-f32 --width "$n" --height "$n" \
                     --max-error "$e" --layout "$layout" --out "$tmp/m.obj" --json)
                 p=$(echo "$line" | .venv/bin/python -c "import json,sys; print(json.load(sys.stdin)['preprocess_ms'])")
                 r=$(echo "$line" | .venv/bin/python -c "import json,sys; print(json.load(sys.stdin)['refine_ms'])")
+                u=$(echo "$line" | .venv/bin/python -c "import json,sys; print(json.load(sys.stdin)['refine_reused_ms'])")
                 bp=$(.venv/bin/python -c "print(min(float('$p'), float('${bp:-inf}')))")
+                bu=$(.venv/bin/python -c "print(min(float('$u'), float('${bu:-inf}')))")
                 br=$(.venv/bin/python -c "print(min(float('$r'), float('${br:-inf}')))")
             done
             echo "$line" | .venv/bin/python -c "
 import json,sys
 d=json.load(sys.stdin)
-print(json.dumps({'dem':'$name','tool':'relief-$layout','n':$n,'E':$e,'create_ms':$bp,'mesh_ms':$br,
+print(json.dumps({'dem':'$name','tool':'relief-$layout','n':$n,'E':$e,'create_ms':$bp,'mesh_ms':$br,'mesh_reused_ms':$bu,
  'triangles':d['triangles'],'vertices':d['vertices'],'measured':d['max_error_measured']}))" | tee -a "$out"
         done
     done

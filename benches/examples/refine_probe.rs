@@ -58,12 +58,18 @@ fn main() {
         ));
     }
     for (name, crit) in &cases {
-        for (lname, hier) in [
-            ("full", &full),
-            ("compact", &compact),
-            ("rec-lin", &lin),
-            ("rec-il", &il),
+        for (lname, hier, pop) in [
+            ("full", &full, false),
+            ("full-pc", &full, true),
+            ("compact", &compact, false),
+            ("compact-pc", &compact, true),
+            ("rec-lin", &lin, false),
+            ("rec-il", &il, false),
         ] {
+            // The `-pc` rows: `triangles_popcnt` (view-independent only, where the CPU has it).
+            if pop && !(name.starts_with("vi") && popcnt()) {
+                continue;
+            }
             if !format!("{name} {lname}").contains(&filter) {
                 continue;
             }
@@ -72,15 +78,40 @@ fn main() {
             let mut c = Default::default();
             for _ in 0..runs {
                 let s = Instant::now();
-                c = black_box(r.triangles(&mut scratch, &mut verts, &mut tris).unwrap());
+                c = black_box(if pop {
+                    triangles_popcnt(&r, &mut scratch, &mut verts, &mut tris)
+                } else {
+                    r.triangles(&mut scratch, &mut verts, &mut tris).unwrap()
+                });
                 best = best.min(s.elapsed().as_secs_f64() * 1e3);
             }
             let c: relief_core::refine::FrameCounts = c;
             println!(
-                "{name:12} {lname:8} {:>8} tris {best:8.3} ms {:7.1} M tris/s",
+                "{name:12} {lname:10} {:>8} tris {best:8.3} ms {:7.1} M tris/s",
                 c.triangles,
                 c.triangles as f64 / best / 1e3
             );
         }
     }
+}
+
+fn popcnt() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    return std::is_x86_feature_detected!("popcnt");
+    #[cfg(not(target_arch = "x86_64"))]
+    false
+}
+
+/// `Refiner::triangles_popcnt` (only called where [`popcnt`] said yes).
+fn triangles_popcnt(
+    r: &Refiner<'_, '_, Heightfield<'_, f32>>,
+    s: &mut [u64],
+    v: &mut [[f32; 3]],
+    t: &mut [[u32; 3]],
+) -> relief_core::refine::FrameCounts {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: called only where the CPU has popcnt.
+    return unsafe { r.triangles_popcnt(s, v, t) }.unwrap();
+    #[cfg(not(target_arch = "x86_64"))]
+    r.triangles(s, v, t).unwrap()
 }

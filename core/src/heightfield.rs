@@ -177,6 +177,27 @@ pub trait Terrain {
     fn scale(&self) -> Scale;
     /// Local height `h * z_scale` of sample `(x, y)`, coordinates clamped into the grid.
     fn local_z(&self, x: u32, y: u32) -> f32;
+    /// Local heights of `out.len()` consecutive samples of row `y` from column `x0`:
+    /// `out[k] = local_z(x0 + k, y)`, bit for bit (coordinates clamped the same way). The
+    /// default calls [`Terrain::local_z`] per sample; [`Heightfield`] copies from its row in
+    /// one vectorisable loop, which row-wise algorithms (refinement preprocessing) use.
+    ///
+    /// ```
+    /// use relief_core::{Heightfield, Scale, Terrain};
+    /// let s: Vec<u16> = (0..12).collect();
+    /// let hf = Heightfield::with_scale(&s, 4, 3, Scale::default().with_z_scale(0.5)).unwrap();
+    /// let mut row = [0.0f32; 3];
+    /// hf.local_z_row(1, 2, &mut row);
+    /// assert_eq!(row, [4.5, 5.0, 5.5]);
+    /// hf.local_z_row(3, 0, &mut row); // past the last column: clamped like local_z
+    /// assert_eq!(row, [1.5, 1.5, 1.5]);
+    /// ```
+    fn local_z_row(&self, x0: u32, y: u32, out: &mut [f32]) {
+        for (k, o) in out.iter_mut().enumerate() {
+            *o = self.local_z(column(x0, k), y);
+        }
+    }
+
     /// Local heights of the four corners of cell `(cx, cy)`, in the order
     /// `(cx, cy), (cx+1, cy), (cx, cy+1), (cx+1, cy+1)`; cell coordinates clamped to
     /// `[0, width-2] x [0, height-2]`.
@@ -423,6 +444,34 @@ impl<S: Sample> Terrain for Heightfield<'_, S> {
             .get(y * self.width as usize + x)
             .map_or(0.0, |s| s.to_f32() * self.scale.z_scale)
     }
+    #[inline]
+    fn local_z_row(&self, x0: u32, y: u32, out: &mut [f32]) {
+        let start = y.min(self.height - 1) as usize * self.width as usize + x0 as usize;
+        let row = if (x0 as usize).saturating_add(out.len()) <= self.width as usize {
+            self.samples.get(start..start + out.len())
+        } else {
+            None
+        };
+        match row {
+            Some(row) => {
+                let z = self.scale.z_scale;
+                for (o, s) in out.iter_mut().zip(row) {
+                    *o = s.to_f32() * z;
+                }
+            }
+            None => {
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = self.local_z(column(x0, k), y);
+                }
+            }
+        }
+    }
+}
+
+/// Column `x0 + k`, saturated (columns past the grid clamp to its last one anyway).
+#[inline(always)]
+fn column(x0: u32, k: usize) -> u32 {
+    u32::try_from(k).map_or(u32::MAX, |k| x0.saturating_add(k))
 }
 
 /// `(1 - t) a + t b`: exact at `t = 0` and `t = 1`, so interpolated surfaces pass exactly
@@ -430,4 +479,40 @@ impl<S: Sample> Terrain for Heightfield<'_, S> {
 #[inline(always)]
 pub(crate) fn lerp(a: f32, b: f32, t: f32) -> f32 {
     (1.0 - t) * a + t * b
+}
+
+#[cfg(test)]
+mod row_tests {
+    use crate::{Composed, Heightfield, Scale, Terrain};
+    use std::vec::Vec;
+
+    /// `local_z_row` equals `local_z` sample by sample, bit for bit, for heightfields (their own
+    /// row copy) and composed terrains (the default), inside the grid, across its right edge,
+    /// past its last row and at the largest column.
+    #[test]
+    fn local_z_row_is_local_z_per_sample() {
+        fn check<T: Terrain>(t: &T) {
+            let mut out = [0.0f32; 23];
+            for y in [0, 1, t.height() - 1, t.height() + 4] {
+                for x0 in [0, 3, t.width() - 5, t.width() - 1, t.width() + 2, u32::MAX - 4] {
+                    for n in [0usize, 1, 5, 23] {
+                        t.local_z_row(x0, y, &mut out[..n]);
+                        for (k, v) in out[..n].iter().enumerate() {
+                            let x = x0.saturating_add(k as u32);
+                            assert_eq!(v.to_bits(), t.local_z(x, y).to_bits(), "{x0}+{k}, {y}");
+                        }
+                    }
+                }
+            }
+        }
+        let s: Vec<f32> = (0..21 * 9).map(|i| (i * 37 % 101) as f32 * 0.37 - 9.0).collect();
+        let sc = Scale::default().with_z_scale(0.3);
+        check(&Heightfield::with_scale(&s, 21, 9, sc).unwrap());
+        let u: Vec<u16> = (0..21 * 9).map(|i| (i * 7919 % 65521) as u16).collect();
+        check(&Heightfield::with_scale(&u, 21, 9, sc).unwrap());
+        let b = Heightfield::new(&s[..6 * 3], 6, 3).unwrap();
+        let d: Vec<i16> = (0..21 * 9).map(|i| (i % 13) as i16 - 6).collect();
+        let comp = Composed::new(b, Heightfield::new(&d, 21, 9).unwrap(), 4).unwrap();
+        check(&comp);
+    }
 }

@@ -25,7 +25,36 @@ fn refine<T: Terrain>(h: &Hierarchy<'_>, t: &T, c: Criterion) -> Mesh {
     let mut v = vec![[0.0; 3]; n.vertices];
     let mut tr = vec![[0; 3]; n.triangles];
     assert_eq!(r.triangles(&mut s, &mut v, &mut tr).unwrap(), n);
+    same_with_popcnt(&r, &mut s, &v, &tr);
     Mesh { v, t: tr }
+}
+
+/// `triangles_popcnt` (where the CPU has popcnt) writes exactly what `triangles` wrote, and
+/// refuses buffers one element short the same way.
+fn same_with_popcnt<T: Terrain>(
+    r: &Refiner<'_, '_, T>,
+    s: &mut [u64],
+    v: &[[f32; 3]],
+    t: &[[u32; 3]],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("popcnt") {
+        let (mut v2, mut t2) = (vec![[f32::NAN; 3]; v.len()], vec![[u32::MAX; 3]; t.len()]);
+        // SAFETY: the CPU has popcnt.
+        let c = unsafe { r.triangles_popcnt(s, &mut v2, &mut t2) }.unwrap();
+        assert_eq!((c.vertices, c.triangles), (v.len(), t.len()));
+        assert!(v2
+            .iter()
+            .zip(v)
+            .all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits)));
+        assert_eq!(t2, t);
+        if let Some(short) = t2.len().checked_sub(1) {
+            // SAFETY: as above.
+            let e = unsafe { r.triangles_popcnt(s, &mut v2, &mut t2[..short]) };
+            assert_eq!(e, r.triangles(s, &mut v2, &mut t2[..short]));
+            assert!(e.is_err());
+        }
+    }
 }
 
 fn opts<T: Terrain>(t: &T) -> CheckOptions {

@@ -338,6 +338,14 @@ pub unsafe extern "C" fn pc_refine(
             let t = view(tris, c.triangles.min(tris_len));
             acc += vertical_error(&hf, v, t, view_mut(cov, cov_len)).unwrap_or(0.0);
         }
+        #[cfg(target_arch = "x86_64")]
+        if let Ok(c) = r.triangles_popcnt(
+            view_mut(scratch, scratch_len),
+            view_mut(verts, verts_len),
+            view_mut(tris, tris_len),
+        ) {
+            acc += c.triangles as f64;
+        }
         acc += r
             .inout_strip(
                 view_mut(scratch, scratch_len),

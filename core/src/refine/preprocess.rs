@@ -10,7 +10,7 @@
 
 use super::grid::{Class, RefineGrid};
 use super::pyramid::{max_deviation, Layout};
-use super::raster::{for_each_span, Plane, RowSpans};
+use super::raster::{for_each_span, span_deviation, Plane, RowSpans};
 use super::{ErrorStore, Hierarchy};
 use crate::{Error, Terrain};
 
@@ -118,27 +118,7 @@ pub(crate) fn triangle_error(t: &impl Terrain, g: &RefineGrid, p: [(i64, i64); 3
             }
             let mut e = 0.0f64;
             for_each_span(p[0], p[1], p[2], |y, lo, hi| {
-                // Register accumulators per row (the captured `e` would be stored every step),
-                // four of them so that the maxima do not wait on each other (a maximum does not
-                // depend on the order).
-                let mut acc = [0.0f64; 4];
-                let mut x = lo;
-                while x + 3 <= hi {
-                    for (k, a) in (0i64..).zip(acc.iter_mut()) {
-                        let d = (local(t, x + k, y) - plane.at(x + k, y)).abs();
-                        *a = if d > *a { d } else { *a };
-                    }
-                    x += 4;
-                }
-                let [mut row, a1, a2, a3] = acc;
-                while x <= hi {
-                    let d = (local(t, x, y) - plane.at(x, y)).abs();
-                    row = if d > row { d } else { row };
-                    x += 1;
-                }
-                for a in [a1, a2, a3] {
-                    row = if a > row { a } else { row };
-                }
+                let row = span_deviation(t, &plane, y, lo, hi);
                 if row > e {
                     e = row;
                 }
@@ -427,8 +407,11 @@ fn vertex_near<const H: i64, const S: usize, T: Terrain, E: ErrorSink + ?Sized>(
     let side = (2 * H + 1) as usize;
     // Row by row (constant trip counts unroll; no division per entry).
     for (row, dy) in nb.chunks_exact_mut(side).zip(-H..=H) {
-        for (v, dx) in row.iter_mut().zip(-H..=H) {
-            *v = local(t, x + dx, y + dy);
+        let mut hs = [0.0f32; 5];
+        let hs = hs.get_mut(..side).unwrap_or(&mut []);
+        t.local_z_row((x - H) as u32, (y + dy) as u32, hs);
+        for (v, &z) in row.iter_mut().zip(hs.iter()) {
+            *v = z as f64;
         }
     }
     // The diamond (two triangles), its four distinct corners and the children, relative to

@@ -13,7 +13,7 @@
 //! samples plus the blocks above them (4/3 of the rasterising cost plus the bounds); a plane that
 //! fits the terrain to within the local relief of each block is such a case.
 
-use super::raster::{orient, Plane, RowSpans};
+use super::raster::{orient, span_deviation, Plane, RowSpans};
 use crate::Terrain;
 
 /// `log2` of the finest block side (4 x 4 samples).
@@ -175,11 +175,6 @@ pub(crate) fn fill<T: Terrain>(
     }
 }
 
-#[inline(always)]
-fn local(t: &impl Terrain, x: i64, y: i64) -> f64 {
-    t.local_z(x as u32, y as u32) as f64
-}
-
 /// Whether the closed rectangle `[x0, x1] x [y0, y1]` may meet the closed counter-clockwise
 /// triangle `p` (exact integer test per edge; may say yes for a rectangle that misses it).
 #[inline(always)]
@@ -247,11 +242,7 @@ pub(crate) fn max_deviation<T: Terrain>(
                 if j <= LEAF_LOG || n + 4 > STACK {
                     for y in ry0..=ry1 {
                         if let Some((lo, hi)) = spans.at(y) {
-                            let mut row = best;
-                            for x in lo.max(rx0)..=hi.min(rx1) {
-                                let d = (local(t, x, y) - plane.at(x, y)).abs();
-                                row = if d > row { d } else { row };
-                            }
+                            let row = span_deviation(t, plane, y, lo.max(rx0), hi.min(rx1));
                             if row > best {
                                 best = row;
                             }

@@ -1,6 +1,8 @@
 //! Exact integer rasterisation of triangles with grid-point corners, and the one plane formula
 //! shared by preprocessing and the error scan (so that both see bit-identical mesh heights).
 
+use crate::Terrain;
+
 /// A plane through three grid points, evaluated by one fixed formula in `f64`.
 ///
 /// The corners are sorted by `(y, x)` first, so the same three points give the same plane (and
@@ -48,6 +50,35 @@ impl Plane {
         self.z0 + self.gx * (x - self.x0) as f64 + self.gy * (y - self.y0) as f64
     }
 
+    /// `max_k |hs[k] - at(x + k, y)|` (0 for an empty slice) with [`Plane::at`]'s very terms:
+    /// the row's part `gy (y - y0)` is computed once and `(x + k - x0)` is carried as an exact
+    /// `f64` counter, so every term is bit for bit `at`'s; four independent maxima (a maximum
+    /// does not depend on the order) let the loop vectorise.
+    #[inline]
+    pub(crate) fn row_deviation(&self, hs: &[f32], x: i64, y: i64) -> f64 {
+        let cy = self.gy * (y - self.y0) as f64;
+        let x0 = (x - self.x0) as f64;
+        let mut acc = [0.0f64; 4];
+        let mut xs = [x0, x0 + 1.0, x0 + 2.0, x0 + 3.0];
+        let mut quads = hs.chunks_exact(4);
+        for q in &mut quads {
+            for ((a, xk), &h) in acc.iter_mut().zip(xs.iter_mut()).zip(q) {
+                let d = (h as f64 - ((self.z0 + self.gx * *xk) + cy)).abs();
+                *a = if d > *a { d } else { *a };
+                *xk += 4.0;
+            }
+        }
+        let [mut m, a1, a2, a3] = acc;
+        for (&h, k) in quads.remainder().iter().zip(0u32..) {
+            let d = (h as f64 - ((self.z0 + self.gx * (xs[0] + f64::from(k))) + cy)).abs();
+            m = if d > m { d } else { m };
+        }
+        for a in [a1, a2, a3] {
+            m = if a > m { a } else { m };
+        }
+        m
+    }
+
     /// Bounds `(lo, hi)` on the values [`Plane::at`] computes over the rectangle
     /// `[x0, x1] x [y0, y1]` (`x0 <= x1`, `y0 <= y1`): the corner values widened by a margin
     /// (`2^-40` of the largest term) far above the few ulps of rounding `at` can add, so that
@@ -68,6 +99,28 @@ impl Plane {
         let tol = m * (1.0 / (1u64 << 40) as f64) + f64::MIN_POSITIVE;
         (lo - tol, hi + tol)
     }
+}
+
+/// Samples per [`span_deviation`] chunk.
+const SPAN_CHUNK: usize = 64;
+
+/// `max |h - plane|` over the samples `lo..=hi` of row `y` (in the grid): heights read a chunk
+/// at a time with [`Terrain::local_z_row`] (bit for bit `local_z`), each chunk by
+/// [`Plane::row_deviation`]. Loops `(hi - lo + 1) / 64 + 1` times.
+#[inline]
+pub(crate) fn span_deviation<T: Terrain>(t: &T, plane: &Plane, y: i64, lo: i64, hi: i64) -> f64 {
+    let mut buf = [0.0f32; SPAN_CHUNK];
+    let mut e = 0.0f64;
+    let mut x = lo;
+    while x <= hi {
+        let n = ((hi - x + 1) as usize).min(SPAN_CHUNK);
+        let Some(hs) = buf.get_mut(..n) else { break };
+        t.local_z_row(x as u32, y as u32, hs);
+        let r = plane.row_deviation(hs, x, y);
+        e = if r > e { r } else { e };
+        x += n as i64;
+    }
+    e
 }
 
 /// Twice the signed area of `(a, b, c)`: positive when counter-clockwise (y up).
@@ -283,6 +336,30 @@ mod tests {
             }
         }
         assert!(hi - lo < 4.0e4);
+    }
+
+    #[test]
+    fn row_deviation_is_the_per_sample_maximum_bit_for_bit() {
+        let p = Plane::new([(3, -2, 1234.5), (70, 1, -17.25), (9, 64, 3.0e4)]).unwrap();
+        for (x, y, n) in [
+            (0i64, 0i64, 0usize),
+            (5, 7, 1),
+            (-3, 9, 3),
+            (11, 2, 4),
+            (2, 40, 37),
+        ] {
+            let hs: std::vec::Vec<f32> = (0..n).map(|k| ((k * 7919) % 113) as f32 * 37.5).collect();
+            let mut want = 0.0f64;
+            for (k, &h) in hs.iter().enumerate() {
+                let d = (h as f64 - p.at(x + k as i64, y)).abs();
+                want = if d > want { d } else { want };
+            }
+            assert_eq!(
+                p.row_deviation(&hs, x, y).to_bits(),
+                want.to_bits(),
+                "{x} {y} {n}"
+            );
+        }
     }
 
     #[test]

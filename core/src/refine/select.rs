@@ -458,6 +458,13 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         if self.view.is_some() {
             return self.triangles_view(scratch, vertices, triangles);
         }
+        if self.square_vi() {
+            let (c, mut vs, depth) = self.vi_square_start(scratch, vertices, triangles)?;
+            for (l, r, a) in vs.roots() {
+                vs.walk(l, r, a, depth);
+            }
+            return Ok(c);
+        }
         let c = self.select(scratch)?;
         need(c.vertices, vertices.len())?;
         need(c.triangles, triangles.len())?;
@@ -471,32 +478,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             n: 0,
         };
         if self.view.is_none() {
-            // View-independent: the kept set is the bitmap (1 bit per vertex, cache-resident),
-            // so the traversal never touches the error array.
             let n = self.g.side() as i64;
-            if self.g.is_square() && (self.g.len() as u64) <= IDX {
-                let ns = n as u64;
-                let w = ns + 1;
-                let mut vs = ViSquare {
-                    bits,
-                    prefix,
-                    out: TriOut {
-                        out: sink.out,
-                        n: 0,
-                    },
-                };
-                let (c00, c10, c01, c11) = (
-                    vs.vertex(0),
-                    vs.vertex(ns),
-                    vs.vertex(ns * w),
-                    vs.vertex(ns * w + ns),
-                );
-                let depth = self.g.levels();
-                for (l, r, a) in [(c11, c00, c10), (c00, c11, c01)] {
-                    vs.walk(l, r, a, depth);
-                }
-                return Ok(c);
-            }
             for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
                 if self.g.is_square() {
                     self.walk_vi::<_, true>(&mut sink, bits, l, r, a, 0);
@@ -508,6 +490,90 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             self.walk_all(&mut sink, false);
         }
         Ok(c)
+    }
+
+    /// [`Self::triangles`] compiled with the x86-64 `popcnt` instruction (x86-64 only): the same
+    /// results, buffer for buffer. The view-independent extraction of a square grid numbers
+    /// each kept vertex by its rank in a bitmap, one population count per vertex; the default
+    /// x86-64 target has no `popcnt` instruction, so [`Self::triangles`] counts bits in
+    /// software. Other criteria and grids take [`Self::triangles`] unchanged.
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support `popcnt` (a `#[target_feature]` function: calling it elsewhere is
+    /// undefined behaviour; check with `is_x86_feature_detected!("popcnt")` on the std side).
+    /// The function itself uses no `unsafe`.
+    ///
+    /// ```
+    /// # #[cfg(target_arch = "x86_64")] {
+    /// use relief_core::refine::{preprocess, scratch_len, Criterion, Refiner};
+    /// use relief_core::Heightfield;
+    /// let s: Vec<f32> = (0..81).map(|i| ((i * 37) % 11) as f32).collect();
+    /// let hf = Heightfield::new(&s, 9, 9).unwrap();
+    /// let (mut e, mut r) = (vec![0.0; 81], vec![0.0; 81]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(1.0)).unwrap();
+    /// let mut s = vec![0; scratch_len(9, 9)];
+    /// let (mut v, mut t) = (vec![[0.0f32; 3]; 81], vec![[0u32; 3]; 128]);
+    /// let c = rf.triangles(&mut s, &mut v, &mut t).unwrap();
+    /// if std::is_x86_feature_detected!("popcnt") {
+    ///     let (mut v2, mut t2) = (vec![[0.0f32; 3]; 81], vec![[0u32; 3]; 128]);
+    ///     // SAFETY: the CPU has popcnt.
+    ///     assert_eq!(unsafe { rf.triangles_popcnt(&mut s, &mut v2, &mut t2) }.unwrap(), c);
+    ///     assert_eq!((v, t), (v2, t2));
+    /// }
+    /// # }
+    /// ```
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "popcnt")]
+    pub fn triangles_popcnt(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [[f32; 3]],
+        triangles: &mut [[u32; 3]],
+    ) -> Result<FrameCounts, Error> {
+        if self.view.is_none() && self.square_vi() {
+            let (c, mut vs, depth) = self.vi_square_start(scratch, vertices, triangles)?;
+            for (l, r, a) in vs.roots() {
+                vs.walk_popcnt(l, r, a, depth);
+            }
+            return Ok(c);
+        }
+        self.triangles(scratch, vertices, triangles)
+    }
+
+    /// Whether view-independent extraction takes [`ViSquare`]: a square grid (`(2^k+1)^2`) of
+    /// fewer than `2^32` samples.
+    fn square_vi(&self) -> bool {
+        self.g.is_square() && (self.g.len() as u64) <= IDX
+    }
+
+    /// View-independent extraction of a square grid up to the traversal: selects, checks the
+    /// buffers (nothing written when one is short), writes the vertices and returns the counts,
+    /// the traversal state and the roots' depth. The kept set is the bitmap (1 bit per vertex,
+    /// cache-resident), so the traversal never touches the error array.
+    #[inline(always)]
+    fn vi_square_start<'a, 'o>(
+        &self,
+        scratch: &'a mut [u64],
+        vertices: &mut [[f32; 3]],
+        triangles: &'o mut [[u32; 3]],
+    ) -> Result<(FrameCounts, ViSquare<'a, 'o>, u32), Error> {
+        let c = self.select(scratch)?;
+        need(c.vertices, vertices.len())?;
+        need(c.triangles, triangles.len())?;
+        let (bits, prefix) = split_scratch(scratch, self.g.len());
+        self.write_vertices(bits, vertices);
+        let vs = ViSquare {
+            bits,
+            prefix,
+            out: TriOut {
+                out: triangles,
+                n: 0,
+            },
+            side: self.g.side() as u64,
+        };
+        Ok((c, vs, self.g.levels()))
     }
 
     /// View-dependent list in one traversal: triangles are written with grid indices while the
@@ -1254,6 +1320,39 @@ impl TriOut<'_> {
     }
 }
 
+/// Defines the recursive traversal of [`ViSquare`] under a name (and attributes: the same body
+/// is compiled once for the default target and once with `popcnt`, whose recursion must call
+/// itself to keep the feature).
+macro_rules! vi_square_walk {
+    ($(#[$attr:meta])* $name:ident) => {
+        /// Triangle `(l, r, a)` whose split vertex is `depth` levels above the leaves.
+        /// Recursion depth at most `levels() <= 60`.
+        $(#[$attr])*
+        fn $name(&mut self, l: u64, r: u64, a: u64, depth: u32) {
+            let m = match self.split(l, r) {
+                Some(m) if depth > 0 => m,
+                _ => return self.put(l, r, a),
+            };
+            match depth {
+                1 => {
+                    // The children are leaf cells: emit them without recursing.
+                    self.put(a, l, m);
+                    self.put(r, a, m);
+                }
+                2 => {
+                    // The two finest levels inline (most triangles of a fine mesh are there).
+                    self.last(a, l, m);
+                    self.last(r, a, m);
+                }
+                _ => {
+                    self.$name(a, l, m, depth - 1);
+                    self.$name(r, a, m, depth - 1);
+                }
+            }
+        }
+    };
+}
+
 /// View-independent traversal of a square grid (`(2^k+1)^2`, fewer than `2^32` samples) driven
 /// by the bitmap of kept vertices. A vertex travels as one `u64`: its row-major grid index in
 /// the low 32 bits and its rank (vertex number) in the high 32 bits; a midpoint's index is the
@@ -1262,6 +1361,8 @@ struct ViSquare<'a, 'o> {
     bits: &'a [u64],
     prefix: &'a [u64],
     out: TriOut<'o>,
+    /// Cells a side (`2^k`).
+    side: u64,
 }
 
 const IDX: u64 = 0xffff_ffff;
@@ -1296,30 +1397,25 @@ impl ViSquare<'_, '_> {
             .put([(a >> 32) as u32, (b >> 32) as u32, (c >> 32) as u32]);
     }
 
-    /// Triangle `(l, r, a)` whose split vertex is `depth` levels above the leaves. Recursion
-    /// depth at most `levels() <= 60`.
-    fn walk(&mut self, l: u64, r: u64, a: u64, depth: u32) {
-        let m = match self.split(l, r) {
-            Some(m) if depth > 0 => m,
-            _ => return self.put(l, r, a),
-        };
-        match depth {
-            1 => {
-                // The children are leaf cells: emit them without recursing.
-                self.put(a, l, m);
-                self.put(r, a, m);
-            }
-            2 => {
-                // The two finest levels inline (most triangles of a fine mesh are there).
-                self.last(a, l, m);
-                self.last(r, a, m);
-            }
-            _ => {
-                self.walk(a, l, m, depth - 1);
-                self.walk(r, a, m, depth - 1);
-            }
-        }
+    /// The two root triangles `(l, r, a)`, their vertices numbered.
+    #[inline(always)]
+    fn roots(&self) -> [(u64, u64, u64); 2] {
+        let (n, w) = (self.side, self.side + 1);
+        let (c00, c10, c01, c11) = (
+            self.vertex(0),
+            self.vertex(n),
+            self.vertex(n * w),
+            self.vertex(n * w + n),
+        );
+        [(c11, c00, c10), (c00, c11, c01)]
     }
+
+    vi_square_walk!(walk);
+    vi_square_walk!(
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "popcnt")]
+        walk_popcnt
+    );
 
     /// [`Self::walk`] at `depth == 1`.
     #[inline(always)]

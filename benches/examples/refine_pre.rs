@@ -1,0 +1,49 @@
+//! Preprocessing timings on the bundled Puget Sound DEM (1025 x 1025): fastest of `RUNS`
+//! (default 20) runs of `preprocess` (full layout, f32 error and radius) and
+//! `preprocess_compact` (bfloat16 error), and a checksum of the output (the same checksum means
+//! the same bits).
+//!
+//! `cargo run --release -p relief-benches --example refine_pre` (`RUNS=n`)
+
+use relief_core::refine::{hierarchy_len, preprocess, preprocess_compact};
+use relief_core::Heightfield;
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Instant;
+
+fn fastest(runs: usize, mut f: impl FnMut()) -> f64 {
+    let mut best = f64::INFINITY;
+    for _ in 0..runs {
+        let s = Instant::now();
+        f();
+        best = best.min(s.elapsed().as_secs_f64() * 1e3);
+    }
+    best
+}
+
+fn main() {
+    let runs: usize = std::env::var("RUNS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(20);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
+    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
+    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    let hf: Heightfield<'_, f32> = dem.heightfield().unwrap();
+    let n = hierarchy_len(dem.width, dem.height);
+    let (mut e, mut r) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let mut c = vec![0u16; n];
+    let full = fastest(runs, || {
+        black_box(preprocess(&hf, &mut e, &mut r).unwrap());
+    });
+    let compact = fastest(runs, || {
+        black_box(preprocess_compact(&hf, &mut c).unwrap());
+    });
+    let mut sum = 0u64;
+    for ((a, b), k) in e.iter().zip(&r).zip(&c) {
+        sum = sum
+            .rotate_left(5)
+            .wrapping_add(u64::from(a.to_bits()) ^ (u64::from(b.to_bits()) << 32) ^ u64::from(*k));
+    }
+    println!("preprocess full {full:8.3} ms  compact {compact:8.3} ms  checksum {sum:016x}");
+}
