@@ -11,14 +11,18 @@
 //! - **Linear**: row-major, record `y * width + x`, like the heightfield.
 //! - **Interleaved**: hierarchical, after SOAR's interleaved quadtrees. The vertices of each
 //!   half-size `s` (from the coarsest, `N / 2`, to 1; `N` the enclosing square's side) are
-//!   stored together: first the centres of the `2s` squares (an `m x m` lattice, `m = N / 2s`),
-//!   then the horizontal and the vertical edge midpoints (`m x (m + 1)` lattices), each
-//!   lattice in Z-order (Morton: bits of the lattice coordinates interleaved) with its extra
-//!   row or column after it; the square's four corners come last. The coarse levels, which
-//!   every frame visits, are dense and small (the top `2j` levels fit in about `4^j` records),
-//!   and a vertex's children sit at the same Z-order position in the next lattices, so a
+//!   stored together, in Z-order (Morton: bits of the lattice coordinates interleaved) of the
+//!   `m x m` squares of side `2s` (`m = N / 2s`): each square's centre with its lower and
+//!   left edge midpoints (three records: two of the centre's four children sit next to it),
+//!   then the edge midpoints of the right column and the top row; the square's four corners
+//!   come last. The coarse levels, which every frame visits,
+//!   are dense and small (the top `2j` levels fit in about `4^j` records), and a vertex's
+//!   children sit at the same Z-order position in the same or the next half-size, so a
 //!   subtree's records on each level form a few contiguous runs (SOAR stores its quadtrees with
 //!   parent-to-child index arithmetic; this computes the same kind of index from `(x, y)`).
+//!   Storing a half-size's centres and edge midpoints in one Z-order instead of three
+//!   lattices made view-dependent frames 1-20% faster (fewer cache lines and pages per frame;
+//!   BENCHMARKS.md, "Out-of-core and layouts").
 //!   It needs `(N + 1)^2` records (exactly the grid for `(2^k + 1)^2` grids, more otherwise;
 //!   [`records_len`]).
 //!
@@ -139,8 +143,13 @@ pub(crate) fn record_index(layout: RecordLayout, g: &RefineGrid, x: u64, y: u64)
     }
 }
 
-/// The interleaved index in a square of side `n = 2^k`: level by level from the coarsest, and
-/// within a level's lattice in Z-order (see the module documentation).
+/// The interleaved index in a square of side `n = 2^k`: half-size by half-size from the
+/// coarsest, and within a half-size `s` in Z-order of its quads (see the module documentation).
+///
+/// In units of `s` the points of half-size `s` are the `(X, Y)`, `0 <= X, Y <= 2m`, not both
+/// even (`m = n / 2s`): quad `(X / 2, Y / 2)` holds a square's centre `(2a+1, 2b+1)` and its
+/// lower and left edge midpoints `(2a+1, 2b)`, `(2a, 2b+1)`, three records from
+/// `3 * morton(a, b)`, the centre first; the right column `X = 2m` and the top row `Y = 2m` follow.
 #[inline(always)]
 fn interleaved_index(n: u64, x: u64, y: u64) -> u64 {
     let bits = x | y;
@@ -151,13 +160,17 @@ fn interleaved_index(n: u64, x: u64, y: u64) -> u64 {
         let c = u64::from(x != 0) + 2 * u64::from(y != 0);
         return (n + 1) * (n + 1) - 4 + c;
     }
-    let m = n >> (t + 1); // lattice side of this half-size
-    let (a, b) = (x >> (t + 1), y >> (t + 1));
+    let m = n >> (t + 1); // quads per side at this half-size
+    let (xs, ys) = (x >> t, y >> t);
     let base = m * m + 2 * m - 3; // records of all coarser half-sizes
-    match ((x >> t) & 1, (y >> t) & 1) {
-        (1, 1) => base + morton(a, b),
-        (1, _) => base + m * m + if b < m { morton(a, b) } else { m * m + a },
-        _ => base + 2 * m * m + m + if a < m { morton(a, b) } else { m * m + b },
+    if xs == 2 * m {
+        base + 3 * m * m + (ys >> 1)
+    } else if ys == 2 * m {
+        base + 3 * m * m + m + (xs >> 1)
+    } else {
+        // The centre (both odd) first, then (X odd, Y even), then (X even, Y odd).
+        let low = ((xs & 1) | ((ys & 1) << 1)) % 3;
+        base + 3 * morton(xs >> 1, ys >> 1) + low
     }
 }
 
@@ -301,7 +314,7 @@ mod index_tests {
     /// the coarse levels come first.
     #[test]
     fn interleaved_index_is_a_permutation() {
-        for k in 1..=6 {
+        for k in 1..=7 {
             let n = 1u64 << k;
             let mut seen = vec![false; ((n + 1) * (n + 1)) as usize];
             for y in 0..=n {

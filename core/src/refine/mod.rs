@@ -95,15 +95,15 @@ pub const fn hierarchy_len(width: u32, height: u32) -> usize {
 }
 
 /// Length of the `u64` scratch every refinement call needs: a bitmap of kept vertices, its
-/// rank prefix, a summary bitmap of the marked words and a marker, `2 w + ceil(w / 64) + 1`
-/// with `w = ceil(width * height / 64)`. Any initial contents work; between calls leave it as
+/// rank prefix, a summary bitmap of the marked words, a summary of the summary and a marker,
+/// `2 w + s + ceil(s / 64) + 1` with `w = ceil(width * height / 64)` and `s = ceil(w / 64)`. Any initial contents work; between calls leave it as
 /// refinement left it (or zero it): view-dependent refinement clears only the words its mesh
 /// touched (its cost follows the output, not the grid), and the marker word tells it when a
 /// full clear is needed.
 ///
 /// ```
-/// assert_eq!(relief_core::refine::scratch_len(8, 8), 4);
-/// assert_eq!(relief_core::refine::scratch_len(1025, 1025), 2 * 16417 + 257 + 1);
+/// assert_eq!(relief_core::refine::scratch_len(8, 8), 5);
+/// assert_eq!(relief_core::refine::scratch_len(1025, 1025), 2 * 16417 + 257 + 5 + 1);
 /// ```
 #[must_use]
 pub const fn scratch_len(width: u32, height: u32) -> usize {

@@ -805,11 +805,34 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     }
 
     /// Writes the positions of the marked vertices of bitmap words `words` (increasing).
+    /// View-dependent refinement from records takes the heights from the records (the terrain's
+    /// heights, packed): the traversal has just read them, while the terrain's rows are cold
+    /// pages on a large grid.
     pub(crate) fn write_vertices_in(
         &self,
         bits: &[u64],
         words: impl Iterator<Item = usize>,
         vertices: &mut [[f32; 3]],
+    ) {
+        match self.h.errors {
+            ErrorStore::Records(recs, layout) if self.view.is_some() => {
+                self.write_positions(bits, words, vertices, |x, y| {
+                    recs.get(record_index(layout, &self.g, x as u64, y as u64))
+                        .map_or_else(|| self.t.local_z(x, y), |r| r.z)
+                })
+            }
+            _ => self.write_positions(bits, words, vertices, |x, y| self.t.local_z(x, y)),
+        }
+    }
+
+    /// [`Self::write_vertices_in`] with local heights from `z`.
+    #[inline(always)]
+    fn write_positions(
+        &self,
+        bits: &[u64],
+        words: impl Iterator<Item = usize>,
+        vertices: &mut [[f32; 3]],
+        z: impl Fn(u32, u32) -> f32,
     ) {
         let w = (self.g.width() as usize).max(1); // never 0; the max keeps a panic path out
         let s = self.h.scale();
@@ -837,11 +860,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 }
                 let Some(v) = slots.next() else { return };
                 let (xu, yu) = (x as u32, y as u32);
-                *v = [
-                    xu as f32 * s.dx,
-                    yu as f32 * s.dy,
-                    self.t.local_z(xu, yu) + s.z_offset,
-                ];
+                *v = [xu as f32 * s.dx, yu as f32 * s.dy, z(xu, yu) + s.z_offset];
             }
         }
     }
@@ -1153,25 +1172,29 @@ pub(crate) fn need(needed: usize, actual: usize) -> Result<(), Error> {
 
 /// The scratch's parts: the bitmap of kept vertices (one bit per grid sample), the rank
 /// prefix (one `u64` per bitmap word), a summary bitmap (one bit per bitmap word that has a
-/// mark) and a marker word. View-dependent refinement marks sparsely: it counts, numbers and
-/// clears only the words its mesh touches (found through the summary), so its cost follows the
-/// output, not the grid; it leaves the bitmap and summary zero and the marker [`CLEAN`], and
-/// clears everything first when the marker says otherwise (a first call, garbage, or a
+/// mark), a top summary (one bit per summary word that has a mark) and a marker word.
+/// View-dependent refinement marks sparsely: it counts, numbers and clears only the words its
+/// mesh touches (found through the two summaries, so that not even the summary is scanned
+/// whole: on a 16385^2 grid it has 65,536 words), so its cost follows the output, not the
+/// grid; it leaves the bitmap and summaries zero and the marker [`CLEAN`], and clears
+/// everything first when the marker says otherwise (a first call, garbage, or a
 /// view-independent call, which overwrites the whole bitmap).
 pub(crate) struct Marks<'s> {
     pub(crate) bits: &'s mut [u64],
     pub(crate) prefix: &'s mut [u64],
     summary: &'s mut [u64],
+    top: &'s mut [u64],
     marker: &'s mut u64,
 }
 
-/// Marker of a scratch whose bitmap and summary are all zero.
+/// Marker of a scratch whose bitmap and summaries are all zero.
 const CLEAN: u64 = 0x7265_6c69_6566_c1ea;
 
-/// `u64`s of scratch for a grid of `n` samples: bitmap, prefix, summary, marker.
+/// `u64`s of scratch for a grid of `n` samples: bitmap, prefix, summary, top summary, marker.
 pub(crate) const fn marks_len(n: usize) -> usize {
     let words = n.div_ceil(64);
-    2 * words + words.div_ceil(64) + 1
+    let summary = words.div_ceil(64);
+    2 * words + summary + summary.div_ceil(64) + 1
 }
 
 pub(crate) fn marks(scratch: &mut [u64], n: usize) -> Result<Marks<'_>, Error> {
@@ -1183,13 +1206,30 @@ pub(crate) fn marks(scratch: &mut [u64], n: usize) -> Result<Marks<'_>, Error> {
     };
     let (bits, rest) = scratch.split_at_mut_checked(words).ok_or(short)?;
     let (prefix, rest) = rest.split_at_mut_checked(words).ok_or(short)?;
-    let (summary, rest) = rest.split_at_mut_checked(words.div_ceil(64)).ok_or(short)?;
+    let sw = words.div_ceil(64);
+    let (summary, rest) = rest.split_at_mut_checked(sw).ok_or(short)?;
+    let (top, rest) = rest.split_at_mut_checked(sw.div_ceil(64)).ok_or(short)?;
     let marker = rest.first_mut().ok_or(short)?;
     Ok(Marks {
         bits,
         prefix,
         summary,
+        top,
         marker,
+    })
+}
+
+/// The set bits of `words` as indices `64 * word + bit`, increasing.
+fn set_bits(words: &[u64]) -> impl Iterator<Item = usize> + '_ {
+    words.iter().enumerate().flat_map(|(wi, &w)| {
+        let mut b = w;
+        core::iter::from_fn(move || {
+            (b != 0).then(|| {
+                let i = wi * 64 + b.trailing_zeros() as usize;
+                b &= b - 1;
+                i
+            })
+        })
     })
 }
 
@@ -1199,6 +1239,7 @@ impl Marks<'_> {
         if *self.marker != CLEAN {
             self.bits.fill(0);
             self.summary.fill(0);
+            self.top.fill(0);
         }
         *self.marker = 0;
     }
@@ -1217,28 +1258,32 @@ impl Marks<'_> {
         if let Some(s) = self.summary.get_mut(w >> 6) {
             *s |= 1u64 << (w & 63);
         }
+        if let Some(t) = self.top.get_mut(w >> 12) {
+            *t |= 1u64 << ((w >> 6) & 63);
+        }
+    }
+
+    /// The marked summary words' indices, increasing.
+    fn touched_summary(&self) -> impl Iterator<Item = usize> + '_ {
+        set_bits(self.top)
     }
 
     /// The marked words, increasing.
     pub(crate) fn touched(&self) -> impl Iterator<Item = usize> + '_ {
-        self.summary.iter().enumerate().flat_map(|(si, &s)| {
-            let mut b = s;
-            core::iter::from_fn(move || {
-                (b != 0).then(|| {
-                    let w = si * 64 + b.trailing_zeros() as usize;
-                    b &= b - 1;
-                    w
-                })
-            })
+        let summary = &*self.summary;
+        self.touched_summary().flat_map(move |si| {
+            let s = summary.get(si..=si).unwrap_or(&[]);
+            set_bits(s).map(move |b| si * 64 + b)
         })
     }
 
     /// Rank prefix of the marked words; returns the number of marked vertices.
     pub(crate) fn prefix_sparse(&mut self) -> usize {
         let mut acc = 0u64;
-        for (si, &s) in self.summary.iter().enumerate() {
-            let mut b = s;
+        for si in set_bits(self.top) {
+            let mut b = self.summary.get(si).copied().unwrap_or(0);
             while b != 0 {
+                // At most 64 iterations: one per set bit.
                 let w = si * 64 + b.trailing_zeros() as usize;
                 b &= b - 1;
                 if let Some(p) = self.prefix.get_mut(w) {
@@ -1250,11 +1295,15 @@ impl Marks<'_> {
         acc as usize
     }
 
-    /// Clears the marked words and the summary; the scratch is clean again.
+    /// Clears the marked words and the summaries; the scratch is clean again.
     pub(crate) fn end_sparse(&mut self) {
-        for (si, s) in self.summary.iter_mut().enumerate() {
+        for si in set_bits(self.top) {
+            let Some(s) = self.summary.get_mut(si) else {
+                continue;
+            };
             let mut b = *s;
             while b != 0 {
+                // At most 64 iterations: one per set bit.
                 let w = si * 64 + b.trailing_zeros() as usize;
                 b &= b - 1;
                 if let Some(x) = self.bits.get_mut(w) {
@@ -1263,6 +1312,7 @@ impl Marks<'_> {
             }
             *s = 0;
         }
+        self.top.fill(0);
         *self.marker = CLEAN;
     }
 }
