@@ -1,4 +1,5 @@
 //! Cross-crate tests live in `tests/tests/`.
 #![deny(missing_docs)]
 
+pub mod fixtures;
 pub mod mesh_check;

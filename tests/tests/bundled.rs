@@ -2,15 +2,7 @@
 
 use relief_core::glam::Vec3;
 use relief_core::{normal, normal_map, Composed, Heightfield, NormalMethod, Surface, Terrain};
-use relief_io::{read_dem, ReadOptions};
-use std::path::Path;
-
-fn puget() -> relief_io::Dem {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let mut dem = read_dem(&p, &ReadOptions::default()).unwrap();
-    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
-    dem
-}
+use relief_tests::fixtures::puget;
 
 #[test]
 fn bundled_dem_has_documented_size_and_range() {

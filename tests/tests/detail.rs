@@ -10,10 +10,8 @@ use relief_core::refine::{
     DetailCounts, DetailRefiner, Hierarchy, View,
 };
 use relief_core::{Camera, Composed, Heightfield, Sample, Scale, Terrain};
-use relief_io::{read_dem, ReadOptions};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
 use std::collections::HashMap;
-use std::path::Path;
 
 /// A tileable detail map: periodic value noise (lattice of `cell` samples, wrapping) plus a
 /// finer periodic ripple, amplitude about `amp`.
@@ -262,9 +260,7 @@ fn effective_resolution_is_reached_near_the_eye() {
 /// detail map at factor 64: a 65537^2 virtual grid (2.5 m spacing), meshed for a low flyover.
 #[test]
 fn puget_sound_65537_virtual_grid() {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let mut dem = read_dem(&p, &ReadOptions::default()).unwrap();
-    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    let dem = relief_tests::fixtures::puget();
     let base = dem.heightfield().unwrap();
     let ds = tileable(1024, 1024, 16, 4.0, 2003);
     let detail = Heightfield::new(&ds, 1024, 1024).unwrap();

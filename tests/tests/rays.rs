@@ -5,42 +5,18 @@
 use relief_core::glam::Vec3;
 use relief_core::ray::{MarchOptions, MaxMip, Ray, RayTracer, RunAccel};
 use relief_core::{Camera, Surface, Terrain};
-use std::path::Path;
-
-fn load() -> relief_io::Dem {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
-    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
-    dem
-}
+use relief_tests::fixtures::{puget, puget_views};
 
 #[test]
 fn exact_methods_agree_on_the_bundled_dem() {
-    let dem = load();
+    let dem = puget();
     let hf = dem.heightfield().unwrap();
     let mut rbuf = vec![0.0f32; RunAccel::len(dem.width, dem.height).unwrap()];
     let acc = RunAccel::build(&hf, &mut rbuf).unwrap();
     let mut mbuf = vec![0.0f32; MaxMip::len(dem.width, dem.height).unwrap()];
     let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
-    let views = [
-        // Oblique view, and a grazing one just above the highest peak (4379.8 m).
-        Camera::new(
-            Vec3::new(20_000.0, 15_000.0, 9_000.0),
-            Vec3::new(90_000.0, 100_000.0, 0.0),
-            60.0,
-            48,
-            32,
-        )
-        .unwrap(),
-        Camera::new(
-            Vec3::new(2_000.0, 3_000.0, 4_410.0),
-            Vec3::new(160_000.0, 150_000.0, 4_390.0),
-            30.0,
-            48,
-            32,
-        )
-        .unwrap(),
-    ];
+    // Oblique view, and a grazing one just above the highest peak (4379.8 m).
+    let views = puget_views(48, 32);
     for surface in [
         Surface::Triangles,
         Surface::Bilinear,
@@ -94,7 +70,7 @@ fn exact_methods_agree_on_the_bundled_dem() {
 
 #[test]
 fn march_is_within_its_reported_bracket_or_misses_thin_features() {
-    let dem = load();
+    let dem = puget();
     let hf = dem.heightfield().unwrap();
     let tracer = RayTracer::new(&hf, Surface::Triangles);
     let cam = Camera::new(

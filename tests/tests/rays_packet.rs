@@ -8,8 +8,8 @@
 
 use relief_core::glam::{DVec3, Vec3};
 use relief_core::ray::{MaxMip, Ray, RayTracer, Trace, PACKET_LANES};
-use relief_core::{Camera, Heightfield, Scale, Surface};
-use std::path::Path;
+use relief_core::{Heightfield, Scale, Surface};
+use relief_tests::fixtures::{puget, puget_views};
 
 const SURFACES: [Surface; 4] = [
     Surface::Triangles,
@@ -81,37 +81,14 @@ fn assert_packets_equal(
     scalar.iter().filter(|s| s.hit.is_some()).count()
 }
 
-fn load() -> relief_io::Dem {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
-    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
-    dem
-}
-
 #[test]
 fn packet_paths_give_the_same_depth_image_on_the_bundled_dem() {
-    let dem = load();
+    let dem = puget();
     let hf = dem.heightfield().unwrap();
     let mut mbuf = vec![0.0f32; MaxMip::len(dem.width, dem.height).unwrap()];
     let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
-    let views = [
-        Camera::new(
-            Vec3::new(20_000.0, 15_000.0, 9_000.0),
-            Vec3::new(90_000.0, 100_000.0, 0.0),
-            60.0,
-            64,
-            40,
-        )
-        .unwrap(),
-        Camera::new(
-            Vec3::new(2_000.0, 3_000.0, 4_410.0),
-            Vec3::new(160_000.0, 150_000.0, 4_390.0),
-            30.0,
-            64,
-            40,
-        )
-        .unwrap(),
-    ];
+    // Oblique view, and a grazing one just above the highest peak (4379.8 m).
+    let views = puget_views(64, 40);
     for surface in SURFACES {
         let t = RayTracer::new(&hf, surface);
         for cam in &views {

@@ -13,7 +13,6 @@ use relief_core::refine::{
 use relief_core::{Camera, Heightfield, Scale, Terrain};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
 use std::collections::HashMap;
-use std::path::Path;
 
 struct Tile {
     x0: u32,
@@ -26,10 +25,8 @@ struct Tile {
 }
 
 fn puget() -> (Vec<f32>, u32, u32, Scale) {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
-    let scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
-    (dem.samples, dem.width, dem.height, scale)
+    let dem = relief_tests::fixtures::puget();
+    (dem.samples, dem.width, dem.height, dem.scale)
 }
 
 fn starts(n: u32, size: u32) -> Vec<u32> {

@@ -7,7 +7,6 @@ use relief_core::refine::{coverage_len, vertical_error};
 use relief_core::{Heightfield, Scale, Terrain};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
 use relief_tin::{Tin, TinOptions};
-use std::path::Path;
 
 /// Builds a TIN, checks it is crack-free and that the core's scan of the OBJ positions gives
 /// exactly the error the builder reports, within the target when it stopped on error.
@@ -56,9 +55,7 @@ proptest! {
 
 #[test]
 fn bundled_dem_tins_are_crack_free_and_within_error() {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let mut dem = relief_io::read_dem(&p, &Default::default()).unwrap();
-    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    let dem = relief_tests::fixtures::puget();
     let hf = dem.heightfield().unwrap();
     let mut last = 0;
     for e in [200.0f32, 50.0, 20.0] {
