@@ -494,7 +494,14 @@ mod row_tests {
         fn check<T: Terrain>(t: &T) {
             let mut out = [0.0f32; 23];
             for y in [0, 1, t.height() - 1, t.height() + 4] {
-                for x0 in [0, 3, t.width() - 5, t.width() - 1, t.width() + 2, u32::MAX - 4] {
+                for x0 in [
+                    0,
+                    3,
+                    t.width() - 5,
+                    t.width() - 1,
+                    t.width() + 2,
+                    u32::MAX - 4,
+                ] {
                     for n in [0usize, 1, 5, 23] {
                         t.local_z_row(x0, y, &mut out[..n]);
                         for (k, v) in out[..n].iter().enumerate() {
@@ -505,7 +512,9 @@ mod row_tests {
                 }
             }
         }
-        let s: Vec<f32> = (0..21 * 9).map(|i| (i * 37 % 101) as f32 * 0.37 - 9.0).collect();
+        let s: Vec<f32> = (0..21 * 9)
+            .map(|i| (i * 37 % 101) as f32 * 0.37 - 9.0)
+            .collect();
         let sc = Scale::default().with_z_scale(0.3);
         check(&Heightfield::with_scale(&s, 21, 9, sc).unwrap());
         let u: Vec<u16> = (0..21 * 9).map(|i| (i * 7919 % 65521) as u16).collect();
