@@ -568,7 +568,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             bits,
             prefix,
             out: TriOut {
-                out: triangles,
+                // Exactly the count (checked above): `ViSquare::last` may write one slot ahead.
+                out: triangles.get_mut(..c.triangles).unwrap_or(&mut []),
                 n: 0,
             },
             side: self.g.side() as u64,
@@ -1368,6 +1369,18 @@ impl TriOut<'_> {
         }
         self.n += 1;
     }
+
+    /// Writes `t` and `u` (while there is room) and counts `1 + more` (`more` 0 or 1) of them.
+    #[inline(always)]
+    fn put_pair(&mut self, t: [u32; 3], u: [u32; 3], more: usize) {
+        if let Some(o) = self.out.get_mut(self.n) {
+            *o = t;
+        }
+        if let Some(o) = self.out.get_mut(self.n + 1) {
+            *o = u;
+        }
+        self.n += 1 + more;
+    }
 }
 
 /// Defines the recursive traversal of [`ViSquare`] under a name (and attributes: the same body
@@ -1467,16 +1480,24 @@ impl ViSquare<'_, '_> {
         walk_popcnt
     );
 
-    /// [`Self::walk`] at `depth == 1`.
+    /// [`Self::walk`] at `depth == 1`, without a branch on the split: the first slot gets
+    /// `(a, l, m)` when `m` is kept and `(l, r, a)` otherwise (selected by a mask), the second
+    /// always gets `(r, a, m)` and counts only when `m` is kept (otherwise the next triangle
+    /// overwrites it; the output is cut to the exact count, so nothing lands past it).
     #[inline(always)]
     fn last(&mut self, l: u64, r: u64, a: u64) {
-        match self.split(l, r) {
-            Some(m) => {
-                self.put(a, l, m);
-                self.put(r, a, m);
-            }
-            None => self.put(l, r, a),
-        }
+        let im = ((l & IDX) + (r & IDX)) >> 1;
+        let w = (im >> 6) as usize;
+        let word = self.bits.get(w).copied().unwrap_or(0);
+        let kept = (word >> (im & 63)) & 1;
+        let below = word & ((1u64 << (im & 63)) - 1);
+        let p = self.prefix.get(w).copied().unwrap_or(0);
+        let m = im | ((p + below.count_ones() as u64) << 32);
+        let keep = kept.wrapping_neg();
+        let pick = |x: u64, y: u64| ((x & keep) | (y & !keep)) >> 32;
+        let first = [pick(a, l) as u32, pick(l, r) as u32, pick(m, a) as u32];
+        let second = [(r >> 32) as u32, (a >> 32) as u32, (m >> 32) as u32];
+        self.out.put_pair(first, second, kept as usize);
     }
 }
 
