@@ -96,10 +96,10 @@ pub const fn hierarchy_len(width: u32, height: u32) -> usize {
 
 /// Length of the `u64` scratch every refinement call needs: a bitmap of kept vertices, its
 /// rank prefix, a summary bitmap of the marked words, a summary of the summary and a marker,
-/// `2 w + s + ceil(s / 64) + 1` with `w = ceil(width * height / 64)` and `s = ceil(w / 64)`. Any initial contents work; between calls leave it as
-/// refinement left it (or zero it): view-dependent refinement clears only the words its mesh
-/// touched (its cost follows the output, not the grid), and the marker word tells it when a
-/// full clear is needed.
+/// `2 w + s + ceil(s / 64) + 1` with `w = ceil(width * height / 64)` and `s = ceil(w / 64)`.
+/// Any initial contents work; between calls leave it as refinement left it (or zero it):
+/// view-dependent refinement clears only the words its mesh touched (its cost follows the
+/// output, not the grid), and the marker word tells it when a full clear is needed.
 ///
 /// ```
 /// assert_eq!(relief_core::refine::scratch_len(8, 8), 5);

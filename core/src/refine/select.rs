@@ -1250,17 +1250,23 @@ impl Marks<'_> {
         *self.marker = 0;
     }
 
+    /// Marks vertex `i` (sparse mode: the bitmap started clean, so a word's first mark is the
+    /// one that finds it zero, and only that one updates the summaries).
     #[inline(always)]
     pub(crate) fn mark(&mut self, i: usize) {
         let w = i >> 6;
-        if let Some(word) = self.bits.get_mut(w) {
-            *word |= 1u64 << (i & 63);
-        }
-        if let Some(s) = self.summary.get_mut(w >> 6) {
-            *s |= 1u64 << (w & 63);
-        }
-        if let Some(t) = self.top.get_mut(w >> 12) {
-            *t |= 1u64 << ((w >> 6) & 63);
+        let Some(word) = self.bits.get_mut(w) else {
+            return;
+        };
+        let old = *word;
+        *word = old | 1u64 << (i & 63);
+        if old == 0 {
+            if let Some(s) = self.summary.get_mut(w >> 6) {
+                *s |= 1u64 << (w & 63);
+            }
+            if let Some(t) = self.top.get_mut(w >> 12) {
+                *t |= 1u64 << ((w >> 6) & 63);
+            }
         }
     }
 
