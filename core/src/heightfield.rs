@@ -193,9 +193,7 @@ pub trait Terrain {
     /// assert_eq!(row, [1.5, 1.5, 1.5]);
     /// ```
     fn local_z_row(&self, x0: u32, y: u32, out: &mut [f32]) {
-        for (k, o) in out.iter_mut().enumerate() {
-            *o = self.local_z(column(x0, k), y);
-        }
+        row_per_sample(self, x0, y, out);
     }
 
     /// Local heights of the four corners of cell `(cx, cy)`, in the order
@@ -459,12 +457,16 @@ impl<S: Sample> Terrain for Heightfield<'_, S> {
                     *o = s.to_f32() * z;
                 }
             }
-            None => {
-                for (k, o) in out.iter_mut().enumerate() {
-                    *o = self.local_z(column(x0, k), y);
-                }
-            }
+            None => row_per_sample(self, x0, y, out),
         }
+    }
+}
+
+/// [`Terrain::local_z_row`] by one [`Terrain::local_z`] call per sample.
+#[inline]
+fn row_per_sample<T: Terrain + ?Sized>(t: &T, x0: u32, y: u32, out: &mut [f32]) {
+    for (k, o) in out.iter_mut().enumerate() {
+        *o = t.local_z(column(x0, k), y);
     }
 }
 

@@ -477,17 +477,14 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             out: triangles,
             n: 0,
         };
-        if self.view.is_none() {
-            let n = self.g.side() as i64;
-            for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
-                if self.g.is_square() {
-                    self.walk_vi::<_, true>(&mut sink, bits, l, r, a, 0);
-                } else {
-                    self.walk_vi::<_, false>(&mut sink, bits, l, r, a, 0);
-                }
+        // View-independent (the view-dependent criterion returned above).
+        let n = self.g.side() as i64;
+        for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
+            if self.g.is_square() {
+                self.walk_vi::<_, true>(&mut sink, bits, l, r, a, 0);
+            } else {
+                self.walk_vi::<_, false>(&mut sink, bits, l, r, a, 0);
             }
-        } else {
-            self.walk_all(&mut sink, false);
         }
         Ok(c)
     }
@@ -1437,27 +1434,42 @@ struct ViSquare<'a, 'o> {
 const IDX: u64 = 0xffff_ffff;
 
 impl ViSquare<'_, '_> {
+    /// The bitmap word holding grid index `i`.
+    #[inline(always)]
+    fn word(&self, i: u64) -> u64 {
+        self.bits.get((i >> 6) as usize).copied().unwrap_or(0)
+    }
+
+    /// Packs grid index `i` (whose bitmap word is `word`) with its rank.
+    #[inline(always)]
+    fn pack(&self, i: u64, word: u64) -> u64 {
+        let below = word & ((1u64 << (i & 63)) - 1);
+        let r =
+            self.prefix.get((i >> 6) as usize).copied().unwrap_or(0) + below.count_ones() as u64;
+        (i & IDX) | (r << 32)
+    }
+
     /// Packs grid index `i` with its rank.
     #[inline(always)]
     fn vertex(&self, i: u64) -> u64 {
-        let w = (i >> 6) as usize;
-        let word = self.bits.get(w).copied().unwrap_or(0);
-        let below = word & ((1u64 << (i & 63)) - 1);
-        let r = self.prefix.get(w).copied().unwrap_or(0) + below.count_ones() as u64;
-        (i & IDX) | (r << 32)
+        self.pack(i, self.word(i))
+    }
+
+    /// The midpoint of hypotenuse `l-r` (a grid index).
+    #[inline(always)]
+    fn mid(l: u64, r: u64) -> u64 {
+        ((l & IDX) + (r & IDX)) >> 1
     }
 
     /// The split vertex of hypotenuse `l-r` if it is kept.
     #[inline(always)]
     fn split(&self, l: u64, r: u64) -> Option<u64> {
-        let im = ((l & IDX) + (r & IDX)) >> 1;
-        let word = self.bits.get((im >> 6) as usize).copied().unwrap_or(0);
+        let im = Self::mid(l, r);
+        let word = self.word(im);
         if (word >> (im & 63)) & 1 == 0 {
             return None;
         }
-        let below = word & ((1u64 << (im & 63)) - 1);
-        let p = self.prefix.get((im >> 6) as usize).copied().unwrap_or(0);
-        Some(im | ((p + below.count_ones() as u64) << 32))
+        Some(self.pack(im, word))
     }
 
     #[inline(always)]
@@ -1492,13 +1504,10 @@ impl ViSquare<'_, '_> {
     /// overwrites it; the output is cut to the exact count, so nothing lands past it).
     #[inline(always)]
     fn last(&mut self, l: u64, r: u64, a: u64) {
-        let im = ((l & IDX) + (r & IDX)) >> 1;
-        let w = (im >> 6) as usize;
-        let word = self.bits.get(w).copied().unwrap_or(0);
+        let im = Self::mid(l, r);
+        let word = self.word(im);
         let kept = (word >> (im & 63)) & 1;
-        let below = word & ((1u64 << (im & 63)) - 1);
-        let p = self.prefix.get(w).copied().unwrap_or(0);
-        let m = im | ((p + below.count_ones() as u64) << 32);
+        let m = self.pack(im, word);
         let keep = kept.wrapping_neg();
         let pick = |x: u64, y: u64| ((x & keep) | (y & !keep)) >> 32;
         let first = [pick(a, l) as u32, pick(l, r) as u32, pick(m, a) as u32];
