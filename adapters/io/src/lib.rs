@@ -16,7 +16,8 @@
 //! hand-decoded. Every writer ([`write_raw_f32`], [`write_png16`], [`write_obj`]) writes to a
 //! temporary file in the destination folder and renames it into place, so a failed or
 //! interrupted run never leaves a truncated file and never destroys the previous good output.
-//! [`MappedGrid`] memory-maps a raw f32 grid instead of reading it (grids larger than memory).
+//! [`MappedGrid`] memory-maps a raw f32 grid instead of reading it (grids larger than memory);
+//! [`write_records`] and [`MappedRecords`] store and map preprocessed refinement records.
 //!
 //! ```no_run
 //! use relief_io::{read_dem, ReadOptions};
@@ -31,10 +32,12 @@ mod dem;
 mod error;
 mod mmap;
 mod read;
+mod records;
 mod write;
 
 pub use dem::{Dem, Stats};
 pub use error::IoError;
 pub use mmap::{HugeBuffer, MappedGrid};
 pub use read::{decode_dem, read_dem, Fill, Format, ReadOptions};
+pub use records::{write_records, MappedRecords};
 pub use write::{write_atomic, write_obj, write_png16, write_png_rgb8, write_raw_f32};

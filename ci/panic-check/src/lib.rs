@@ -266,8 +266,8 @@ pub extern "C" fn pc_grid_line(s: &[f64; 2], d: &[f64; 2], e: &[f64; 2], cells: 
 // ---- Refinement (core::refine) ----
 
 use relief_core::refine::{
-    pack_records, preprocess, preprocess_compact, vertical_error, Criterion, MorphVertex,
-    RecordLayout, Refiner, VertexRecord, View,
+    check_records, pack_records, preprocess, preprocess_compact, records_hierarchy,
+    vertical_error, Criterion, MorphVertex, RecordLayout, Refiner, VertexRecord, View,
 };
 
 /// Preprocessing (both layouts) and every refinement output, view-independent or view-dependent.
@@ -363,6 +363,8 @@ pub unsafe extern "C" fn pc_refine(
             continue;
         };
         acc += f64::from(hr.error(1, 1).unwrap_or(0.0));
+        acc += f64::from(u8::from(check_records(&hr).is_ok()));
+        let z = hr.z_range();
         for crit in criteria {
             let Ok(r) = Refiner::new(&hr, &hf, crit) else {
                 continue;
@@ -378,6 +380,11 @@ pub unsafe extern "C" fn pc_refine(
                     view_mut(strip, strip_len),
                 )
                 .map_or(0.0, |c| c.indices as f64);
+        }
+        // The same records wrapped again, as after mapping them from a file (caller's sizes).
+        let stored: &[VertexRecord] = view_mut(rec, rec_len);
+        if let Ok(again) = records_hierarchy(stored, layout, w, h, scale(s), z) {
+            acc += f64::from(u8::from(check_records(&again).is_ok()));
         }
     }
     acc

@@ -302,6 +302,156 @@ pub fn pack_records<'a, T: Terrain>(
     ))
 }
 
+/// A [`Hierarchy`] over records that [`pack_records`] wrote earlier, for example into a file
+/// that is now memory-mapped: SOAR's out-of-core use, where the preprocessed data of a grid far
+/// larger than memory is paged in only where the mesh is. `scale` and `z_range` (the smallest and
+/// largest local height, as [`Hierarchy::z_range`] gave when the records were packed) are stored
+/// beside the records by the caller.
+///
+/// This is O(1): it checks sizes and parameters, not the records. Records from an untrusted
+/// source should be checked once with [`check_records`] (a full pass): refinement over bad
+/// records never panics, but meshes may crack or miss the error bound.
+///
+/// ```
+/// use relief_core::refine::{pack_records, preprocess, records_hierarchy, records_len};
+/// use relief_core::refine::{RecordLayout, VertexRecord};
+/// use relief_core::{Heightfield, Terrain};
+/// let s: Vec<f32> = (0..25).map(|i| ((i * 7) % 5) as f32).collect();
+/// let hf = Heightfield::new(&s, 5, 5).unwrap();
+/// let (mut e, mut r) = (vec![0.0; 25], vec![0.0; 25]);
+/// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+/// let mut rec = vec![VertexRecord::default(); records_len(5, 5, RecordLayout::Interleaved)];
+/// let packed = pack_records(&h, &hf, RecordLayout::Interleaved, &mut rec).unwrap();
+/// let (z, e22) = (packed.z_range(), packed.error(2, 2));
+/// // ... rec saved to a file and mapped again ...
+/// let again = records_hierarchy(&rec, RecordLayout::Interleaved, 5, 5, hf.scale(), z).unwrap();
+/// assert_eq!(again.error(2, 2), e22);
+/// assert!(records_hierarchy(&rec[..24], RecordLayout::Interleaved, 5, 5, hf.scale(), z).is_err());
+/// ```
+pub fn records_hierarchy(
+    records: &[VertexRecord],
+    layout: RecordLayout,
+    width: u32,
+    height: u32,
+    scale: crate::Scale,
+    z_range: (f32, f32),
+) -> Result<Hierarchy<'_>, Error> {
+    let g = RefineGrid::new(width, height)?;
+    scale.validate()?;
+    let (lo, hi) = z_range;
+    for (name, v) in [("z_min", lo), ("z_max", hi)] {
+        if !v.is_finite() {
+            return Err(Error::InvalidParameter { name, value: v });
+        }
+    }
+    if lo > hi {
+        return Err(Error::InvalidParameter {
+            name: "z_min",
+            value: lo,
+        });
+    }
+    let need = records_len(width, height, layout);
+    if records.len() < need {
+        return Err(Error::BufferTooSmall {
+            needed: need,
+            actual: records.len(),
+        });
+    }
+    Ok(Hierarchy::assemble(
+        g,
+        scale,
+        ErrorStore::Records(records, layout),
+        None,
+        lo,
+        hi,
+    ))
+}
+
+/// Checks, in one pass over the grid, that a records [`Hierarchy`] keeps the invariants
+/// [`pack_records`] establishes: every in-domain record has a finite height inside the
+/// hierarchy's z range, an error that is not NaN and not negative (`+inf` only where the vertex
+/// is always kept) and a finite non-negative radius; each vertex's error is at least its
+/// children's and its sphere contains theirs. Returns [`Error::BadSample`] naming the first
+/// vertex (row-major order) that breaks one, or [`Error::InvalidParameter`] for a hierarchy that
+/// is not made of records.
+///
+/// ```
+/// use relief_core::refine::{check_records, pack_records, preprocess, records_hierarchy};
+/// use relief_core::refine::{records_len, RecordLayout, VertexRecord};
+/// use relief_core::{Error, Heightfield, Terrain};
+/// let s: Vec<f32> = (0..25).map(|i| ((i * 7) % 5) as f32).collect();
+/// let hf = Heightfield::new(&s, 5, 5).unwrap();
+/// let (mut e, mut r) = (vec![0.0; 25], vec![0.0; 25]);
+/// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+/// let mut rec = vec![VertexRecord::default(); records_len(5, 5, RecordLayout::Linear)];
+/// let z = pack_records(&h, &hf, RecordLayout::Linear, &mut rec).unwrap().z_range();
+/// let ok = records_hierarchy(&rec, RecordLayout::Linear, 5, 5, hf.scale(), z).unwrap();
+/// assert_eq!(check_records(&ok), Ok(()));
+/// rec[1 * 5 + 2].error = 0xffc0; // NaN at (2, 1)
+/// let bad = records_hierarchy(&rec, RecordLayout::Linear, 5, 5, hf.scale(), z).unwrap();
+/// assert_eq!(check_records(&bad), Err(Error::BadSample { x: 2, y: 1 }));
+/// ```
+pub fn check_records(hierarchy: &Hierarchy<'_>) -> Result<(), Error> {
+    let ErrorStore::Records(recs, layout) = hierarchy.errors else {
+        return Err(Error::InvalidParameter {
+            name: "hierarchy (not records)",
+            value: 0.0,
+        });
+    };
+    let g = hierarchy.grid();
+    let s = hierarchy.scale();
+    let (lo, hi) = hierarchy.z_range();
+    let rec = |x: u32, y: u32| recs.get(record_index(layout, &g, x as u64, y as u64));
+    let own = |x: u32, y: u32| -> Option<VertexRecord> {
+        let r = *rec(x, y)?;
+        let (e, rad) = (r.error_value(), r.radius_value());
+        let z_ok = r.z.is_finite() && r.z >= lo && r.z <= hi;
+        let ok = if g.level(x, y).is_none() {
+            // A corner of the grid's square: always kept, its radius is never read.
+            e == f32::INFINITY
+        } else {
+            e >= 0.0 && rad >= 0.0 && rad != f32::INFINITY
+        };
+        (z_ok && ok).then_some(r)
+    };
+    // First each record on its own (so a bad record is named, not its parent), then nesting.
+    for y in 0..g.height() {
+        for x in 0..g.width() {
+            if own(x, y).is_none() {
+                return Err(Error::BadSample { x, y });
+            }
+        }
+    }
+    for y in 0..g.height() {
+        for x in 0..g.width() {
+            let bad = Err(Error::BadSample { x, y });
+            let Some(r) = own(x, y) else {
+                return bad;
+            };
+            let (e, rad) = (r.error_value(), r.radius_value() as f64);
+            let p = [x as f64 * s.dx as f64, y as f64 * s.dy as f64, r.z as f64];
+            for &(cx, cy) in g.children(x, y).iter().flatten() {
+                if !g.in_domain(cx, cy) {
+                    continue;
+                }
+                let Some(c) = own(cx as u32, cy as u32) else {
+                    return bad;
+                };
+                let (dx, dy, dz) = (
+                    p[0] - cx as f64 * s.dx as f64,
+                    p[1] - cy as f64 * s.dy as f64,
+                    p[2] - c.z as f64,
+                );
+                let d = libm::sqrt(dx * dx + dy * dy + dz * dz);
+                if c.error_value() > e || rad < d + c.radius_value() as f64 {
+                    return bad;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Relative inflation when re-nesting rounded radii (floating point).
 const RENEST_MARGIN: f64 = 1.0 / (1u64 << 20) as f64;
 

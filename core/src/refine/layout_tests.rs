@@ -1,8 +1,9 @@
 //! Tests of the 8-byte vertex records and their layouts (std only in tests).
 
+use super::layout::record_index;
 use super::tests::{list, Mesh};
 use super::*;
-use crate::{Camera, Heightfield, Scale, Terrain};
+use crate::{Camera, Error, Heightfield, Scale, Terrain};
 use glam::Vec3;
 use std::collections::BTreeSet;
 use std::vec;
@@ -64,17 +65,29 @@ fn cameras() -> [Camera; 3] {
     ]
 }
 
+/// A random `w x h` grid (spacing 10, heights up to 30) and its full preprocessing.
+fn with_full(w: u32, h: u32, seed: u64, f: impl FnOnce(&Heightfield<'_, f32>, &Hierarchy<'_>)) {
+    let s = grid(w, h, seed, 30.0);
+    let sc = Scale::default().with_spacing(10.0, 10.0);
+    let hf = Heightfield::with_scale(&s, w, h, sc).unwrap();
+    let n = hierarchy_len(w, h);
+    let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+    let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+    f(&hf, &full);
+}
+
 /// Both layouts give the same mesh (vertices and triangles, in order), view-independent and
 /// view-dependent with and without culling, on square and non-square grids.
 #[test]
 fn same_mesh_for_both_layouts() {
     for (w, h, seed) in [(65, 65, 3), (37, 29, 5), (2, 2, 7), (3, 3, 9), (64, 17, 11)] {
-        let s = grid(w, h, seed, 30.0);
-        let sc = Scale::default().with_spacing(10.0, 10.0);
-        let hf = Heightfield::with_scale(&s, w, h, sc).unwrap();
-        let n = hierarchy_len(w, h);
-        let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
-        let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+        with_full(w, h, seed, |hf, full| same_mesh_case(w, h, hf, full));
+    }
+}
+
+fn same_mesh_case(w: u32, h: u32, hf: &Heightfield<'_, f32>, full: &Hierarchy<'_>) {
+    let (hf, full) = (*hf, *full);
+    {
         let mut lin = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Linear)];
         let mut il = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Interleaved)];
         let a = pack_records(&full, &hf, RecordLayout::Linear, &mut lin).unwrap();
@@ -274,4 +287,83 @@ fn skipping_repeated_decisions_keeps_the_mesh() {
         }
     }
     assert!(checked > 6);
+}
+
+/// Records stored and wrapped again (`records_hierarchy`, as after mapping a file) give the
+/// packed hierarchy's meshes exactly; `check_records` accepts every packed layout and names the
+/// first record that breaks an invariant: a NaN or negative error, a height outside the range,
+/// an error above its parent's, a sphere its parent does not contain.
+#[test]
+fn stored_records_refine_alike_and_the_checker_finds_broken_ones() {
+    for (w, h, seed) in [(65, 65, 3), (37, 29, 5), (2, 2, 7), (64, 17, 11)] {
+        with_full(w, h, seed, |hf, full| stored_records_case(w, h, hf, full));
+    }
+}
+
+fn stored_records_case(w: u32, h: u32, hf: &Heightfield<'_, f32>, full: &Hierarchy<'_>) {
+    let (hf, full) = (*hf, *full);
+    let sc = hf.scale();
+    {
+        assert!(check_records(&full).is_err(), "not records");
+        for layout in [RecordLayout::Linear, RecordLayout::Interleaved] {
+            let mut rec = vec![VertexRecord::default(); records_len(w, h, layout)];
+            let packed = pack_records(&full, &hf, layout, &mut rec).unwrap();
+            let z = packed.z_range();
+            let mut crits = vec![Criterion::MaxError(2.0)];
+            crits.extend(cameras().map(|c| Criterion::View(View::new(&c, 1.5).unwrap())));
+            let meshes: Vec<_> = crits.iter().map(|&c| list(&packed, &hf, c)).collect();
+            let stored = rec.clone();
+            let again = records_hierarchy(&stored, layout, w, h, sc, z).unwrap();
+            assert_eq!(check_records(&again), Ok(()), "{w}x{h} {layout:?}");
+            for (c, m) in crits.iter().zip(&meshes) {
+                let m2 = list(&again, &hf, *c);
+                assert_eq!((&m.v, &m.t), (&m2.v, &m2.t), "{w}x{h} {layout:?} {c:?}");
+            }
+            // Sizes and parameters.
+            let short = &stored[..stored.len() - 1];
+            assert!(records_hierarchy(short, layout, w, h, sc, z).is_err());
+            assert!(records_hierarchy(&stored, layout, w, h, sc, (z.1 + 1.0, z.1)).is_err());
+            assert!(records_hierarchy(&stored, layout, w, h, sc, (f32::NAN, z.1)).is_err());
+            assert!(records_hierarchy(&stored, layout, w, h, sc.with_z_scale(0.0), z).is_err());
+            assert!(records_hierarchy(&stored, layout, 1, h, sc, z).is_err());
+            if w < 4 {
+                continue;
+            }
+            // One corruption at a time, each named at the vertex it is made at.
+            let (x, y) = (w / 2, h / 2);
+            let g = full.grid();
+            let at = |x: u32, y: u32| record_index(layout, &g, x as u64, y as u64);
+            let (cx, cy) = g.children(x, y).into_iter().flatten().next().unwrap();
+            let (cx, cy) = (cx as u32, cy as u32);
+            let parent_err = rec[at(x, y)].error;
+            type Corrupt = fn(&mut VertexRecord, u16);
+            let cases: [(u32, u32, Corrupt); 5] = [
+                (x, y, |r, _| r.error = 0xffc0),                  // NaN error
+                (x, y, |r, _| r.error = 0xbf80),                  // -1
+                (x, y, |r, _| r.z = f32::INFINITY),               // height
+                (x, y, |r, _| r.radius = 0),                      // no longer holds its children
+                (cx, cy, |r, pe| r.error = pe.saturating_add(1)), // above the parent's
+            ];
+            for (k, (bx, by, f)) in cases.into_iter().enumerate() {
+                let mut bad = rec.clone();
+                f(&mut bad[at(bx, by)], parent_err);
+                let hb = records_hierarchy(&bad, layout, w, h, sc, z).unwrap();
+                // A raised child error breaks nesting at its first parent in row-major order
+                // (a vertex has two parents in the diamond hierarchy).
+                let first_parent = (0..h)
+                    .flat_map(|py| (0..w).map(move |px| (px, py)))
+                    .find(|&(px, py)| g.children(px, py).contains(&Some((cx as i64, cy as i64))))
+                    .unwrap();
+                let want = if k == 4 { first_parent } else { (bx, by) };
+                assert_eq!(
+                    check_records(&hb),
+                    Err(Error::BadSample {
+                        x: want.0,
+                        y: want.1
+                    }),
+                    "{w}x{h} {layout:?} case {k}"
+                );
+            }
+        }
+    }
 }

@@ -69,7 +69,9 @@ pub use detail::{
     MEASURE_PERIOD_LIMIT,
 };
 pub use grid::RefineGrid;
-pub use layout::{pack_records, records_len, RecordLayout, VertexRecord};
+pub use layout::{
+    check_records, pack_records, records_hierarchy, records_len, RecordLayout, VertexRecord,
+};
 pub use scan::{coverage_len, vertical_error, vertical_error_partial, Uncovered};
 pub use select::{Criterion, FrameCounts, MorphVertex, Refiner, StripCounts, View};
 pub use tile::{
@@ -329,11 +331,49 @@ impl<'a> Hierarchy<'a> {
         self.radii.is_some() || matches!(self.errors, ErrorStore::Records(..))
     }
 
-    pub(crate) fn scale(&self) -> Scale {
+    /// The spacing and vertical scale of the terrain the hierarchy was built from.
+    ///
+    /// ```
+    /// # use relief_core::{refine::preprocess, Heightfield, Scale};
+    /// let sc = Scale::default().with_spacing(30.0, 30.0);
+    /// let hf = Heightfield::with_scale(&[0.0f32; 4], 2, 2, sc).unwrap();
+    /// let (mut e, mut r) = ([0.0; 4], [0.0; 4]);
+    /// assert_eq!(preprocess(&hf, &mut e, &mut r).unwrap().scale(), sc);
+    /// ```
+    #[must_use]
+    pub fn scale(&self) -> Scale {
         self.scale
     }
 
-    pub(crate) fn z_range(&self) -> (f32, f32) {
+    /// The 8-byte records and their layout, for a hierarchy made by
+    /// [`pack_records`] or [`records_hierarchy`] (to store them, for example in a file that is
+    /// memory-mapped later); `None` for the `f32` and bfloat16 layouts.
+    ///
+    /// ```
+    /// # use relief_core::{refine::preprocess, Heightfield};
+    /// let hf = Heightfield::new(&[0.0f32; 4], 2, 2).unwrap();
+    /// let (mut e, mut r) = ([0.0; 4], [0.0; 4]);
+    /// assert!(preprocess(&hf, &mut e, &mut r).unwrap().records().is_none());
+    /// ```
+    #[must_use]
+    pub fn records(&self) -> Option<(&'a [VertexRecord], RecordLayout)> {
+        match self.errors {
+            ErrorStore::Records(r, layout) => Some((r, layout)),
+            _ => None,
+        }
+    }
+
+    /// The smallest and largest local height of the terrain the hierarchy was built from
+    /// (world z without `z_offset`); store it beside packed records for [`records_hierarchy`].
+    ///
+    /// ```
+    /// # use relief_core::{refine::preprocess, Heightfield};
+    /// let hf = Heightfield::new(&[1.0f32, 2.0, 3.0, 4.0], 2, 2).unwrap();
+    /// let (mut e, mut r) = ([0.0; 4], [0.0; 4]);
+    /// assert_eq!(preprocess(&hf, &mut e, &mut r).unwrap().z_range(), (1.0, 4.0));
+    /// ```
+    #[must_use]
+    pub fn z_range(&self) -> (f32, f32) {
         (self.z_min, self.z_max)
     }
 }
