@@ -6,7 +6,8 @@
 //! and pixel error (same world extent: the spacing is `160 / f` m) with three data layouts:
 //! the `f32` error and radius arrays with the mapped heights (linear), and the 8-byte records in
 //! linear and in the hierarchical interleaved layout, in heap memory and in anonymous memory
-//! with transparent huge pages requested (relief-io's `HugeBuffer`). Times: the fastest of `RUNS` (default 15)
+//! with transparent huge pages requested (relief-io's `HugeBuffer`), and with the refinement
+//! scratch (bitmap and rank prefix, indexed row-major) in huge pages too. Times: the fastest of `RUNS` (default 15)
 //! back-to-back refinements (warm caches) and the median of `RUNS` refinements each after
 //! writing a 256 MiB buffer (cold caches), of the indexed triangle list.
 //!
@@ -14,73 +15,15 @@
 
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    hierarchy_len, pack_records, preprocess, records_len, scratch_len, Criterion, Hierarchy,
-    RecordLayout, Refiner, VertexRecord, View,
+    hierarchy_len, pack_records, preprocess, records_len, Criterion, RecordLayout, VertexRecord,
+    View,
 };
-use relief_core::{Camera, Heightfield, Terrain};
-use std::hint::black_box;
-use std::io::Write;
+use relief_core::{Camera, Terrain};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-fn upsample(src: &Heightfield<'_, f32>, f: u32, out: &Path) {
-    let n0 = src.width();
-    let n = (n0 - 1) * f + 1;
-    let mut w = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(out).unwrap());
-    let mut row = vec![0.0f32; n as usize];
-    let mut bytes = Vec::with_capacity(4 * n as usize);
-    for y in 0..n {
-        let (y0, fy) = (y / f, (y % f) as f32 / f as f32);
-        let y1 = (y0 + 1).min(n0 - 1);
-        for (x, o) in row.iter_mut().enumerate() {
-            let x = x as u32;
-            let (x0, fx) = (x / f, (x % f) as f32 / f as f32);
-            let x1 = (x0 + 1).min(n0 - 1);
-            let a = src.local_z(x0, y0) * (1.0 - fx) + src.local_z(x1, y0) * fx;
-            let b = src.local_z(x0, y1) * (1.0 - fx) + src.local_z(x1, y1) * fx;
-            *o = a * (1.0 - fy) + b * fy;
-        }
-        bytes.clear();
-        for v in &row {
-            bytes.extend_from_slice(&v.to_le_bytes());
-        }
-        w.write_all(&bytes).unwrap();
-    }
-    w.flush().unwrap();
-}
-
-/// Triangles, fastest ms of `runs` back-to-back refinements (warm caches), and median ms of
-/// `runs` refinements each after writing a 256 MiB buffer (cold caches: a frame after other
-/// work, or out-of-core).
-fn time<T: Terrain>(h: &Hierarchy<'_>, t: &T, c: Criterion, runs: usize) -> (usize, f64, f64) {
-    let (w, hh) = (t.width(), t.height());
-    let r = Refiner::new(h, t, c).unwrap();
-    let mut scratch = vec![0u64; scratch_len(w, hh)];
-    let cnt = r.count(&mut scratch).unwrap();
-    let mut verts = vec![[0.0f32; 3]; cnt.vertices];
-    let mut tris = vec![[0u32; 3]; cnt.triangles];
-    let mut evict = vec![0u64; 32 << 20];
-    let mut warm = f64::INFINITY;
-    let mut cold: Vec<f64> = Vec::with_capacity(runs);
-    for k in 0..2 * runs {
-        if k % 2 == 1 {
-            for (i, x) in evict.iter_mut().enumerate() {
-                *x = x.wrapping_add(i as u64);
-            }
-            black_box(&evict);
-        }
-        let s = Instant::now();
-        black_box(r.triangles(&mut scratch, &mut verts, &mut tris).unwrap());
-        let ms = s.elapsed().as_secs_f64() * 1e3;
-        if k % 2 == 1 {
-            cold.push(ms);
-        } else {
-            warm = warm.min(ms);
-        }
-    }
-    cold.sort_by(f64::total_cmp);
-    (cnt.triangles, warm, cold[runs / 2])
-}
+mod common;
+use common::{time, upsample};
 
 fn main() {
     let runs: usize = std::env::var("RUNS")
@@ -152,14 +95,20 @@ fn main() {
             pack_records(&full, &hf, RecordLayout::Interleaved, hi.as_mut_slice()).unwrap();
         for tau in taus {
             let c = Criterion::View(View::new(&cam, tau).unwrap());
-            for (name, h) in [
-                ("f32 arrays + heights, linear (8+4)", &full),
-                ("records, linear (8)", &lin),
-                ("records, interleaved (8)", &il),
-                ("records, linear, huge pages (8)", &lin_huge),
-                ("records, interleaved, huge pages (8)", &il_huge),
+            for (name, h, huge_scratch) in [
+                ("f32 arrays + heights, linear (8+4)", &full, false),
+                ("records, linear (8)", &lin, false),
+                ("records, interleaved (8)", &il, false),
+                ("records, linear, huge pages (8)", &lin_huge, false),
+                ("records, interleaved, huge pages (8)", &il_huge, false),
+                ("records, interleaved, scratch in huge pages (8)", &il, true),
+                (
+                    "records, interleaved, records and scratch in huge pages (8)",
+                    &il_huge,
+                    true,
+                ),
             ] {
-                let (t, best, med) = time(h, &hf, c, runs);
+                let (t, best, med) = time(h, &hf, c, runs, huge_scratch);
                 println!(
                     "| {n}^2 | {name} | {tau} | {t} | {best:.3} | {med:.3} | {:.1} / {:.1} |",
                     t as f64 / best / 1e3,

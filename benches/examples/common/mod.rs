@@ -1,0 +1,107 @@
+//! Shared by the out-of-core examples (`refine_scale`, `refine_mapped`): the upsampled test grids
+//! and the warm / cold frame timing.
+
+use relief_core::refine::{scratch_len, Criterion, Hierarchy, Refiner};
+use relief_core::{Heightfield, Terrain};
+use std::hint::black_box;
+use std::io::Write;
+use std::path::Path;
+use std::time::Instant;
+
+/// Writes the bilinear upsampling of `src` by `f` (`(n - 1) f + 1` samples a side) to `out` as
+/// raw little-endian f32.
+pub fn upsample(src: &Heightfield<'_, f32>, f: u32, out: &Path) {
+    let n0 = src.width();
+    let n = (n0 - 1) * f + 1;
+    let mut w = std::io::BufWriter::with_capacity(1 << 20, std::fs::File::create(out).unwrap());
+    let mut row = vec![0.0f32; n as usize];
+    let mut bytes = Vec::with_capacity(4 * n as usize);
+    for y in 0..n {
+        let (y0, fy) = (y / f, (y % f) as f32 / f as f32);
+        let y1 = (y0 + 1).min(n0 - 1);
+        for (x, o) in row.iter_mut().enumerate() {
+            let x = x as u32;
+            let (x0, fx) = (x / f, (x % f) as f32 / f as f32);
+            let x1 = (x0 + 1).min(n0 - 1);
+            let a = src.local_z(x0, y0) * (1.0 - fx) + src.local_z(x1, y0) * fx;
+            let b = src.local_z(x0, y1) * (1.0 - fx) + src.local_z(x1, y1) * fx;
+            *o = a * (1.0 - fy) + b * fy;
+        }
+        bytes.clear();
+        for v in &row {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        w.write_all(&bytes).unwrap();
+    }
+    w.flush().unwrap();
+}
+
+/// Triangles, fastest ms of `runs` back-to-back refinements (warm caches), and median ms of
+/// `runs` refinements each after writing a 256 MiB buffer (cold caches: a frame after other
+/// work, or out-of-core).
+pub fn time<T: Terrain>(
+    h: &Hierarchy<'_>,
+    t: &T,
+    c: Criterion,
+    runs: usize,
+    huge: bool,
+) -> (usize, f64, f64) {
+    let (w, hh) = (t.width(), t.height());
+    let r = Refiner::new(h, t, c).unwrap();
+    let mut scratch = Scratch::new(scratch_len(w, hh), huge);
+    let scratch = scratch.as_mut_slice();
+    let cnt = r.count(scratch).unwrap();
+    let mut verts = vec![[0.0f32; 3]; cnt.vertices];
+    let mut tris = vec![[0u32; 3]; cnt.triangles];
+    let mut evict = vec![0u64; 32 << 20];
+    let mut warm = f64::INFINITY;
+    let mut cold: Vec<f64> = Vec::with_capacity(runs);
+    for k in 0..2 * runs {
+        if k % 2 == 1 {
+            for (i, x) in evict.iter_mut().enumerate() {
+                *x = x.wrapping_add(i as u64);
+            }
+            black_box(&evict);
+        }
+        let s = Instant::now();
+        black_box(r.triangles(scratch, &mut verts, &mut tris).unwrap());
+        let ms = s.elapsed().as_secs_f64() * 1e3;
+        if k % 2 == 1 {
+            cold.push(ms);
+        } else {
+            warm = warm.min(ms);
+        }
+    }
+    cold.sort_by(f64::total_cmp);
+    (cnt.triangles, warm, cold[runs / 2])
+}
+
+/// The refinement scratch: a plain `Vec`, or anonymous memory with transparent huge pages
+/// requested (`relief_io::HugeBuffer`). The bitmap and rank prefix are indexed
+/// row-major, so on a 16385^2 grid (2 x 32 MiB) the few thousand vertices of a frame fall on
+/// as many different 4 KiB pages; with 2 MiB pages the whole scratch is 33 TLB entries.
+pub enum Scratch {
+    /// `MADV_HUGEPAGE` memory.
+    Huge(relief_io::HugeBuffer<u64>),
+    /// A plain `Vec` (4 KiB pages under THP mode `madvise`).
+    Small(Vec<u64>),
+}
+
+impl Scratch {
+    /// `len` zeroed words, in huge pages if `huge`.
+    pub fn new(len: usize, huge: bool) -> Scratch {
+        if huge {
+            Scratch::Huge(relief_io::HugeBuffer::zeroed(len).unwrap())
+        } else {
+            Scratch::Small(vec![0; len])
+        }
+    }
+
+    /// The words.
+    pub fn as_mut_slice(&mut self) -> &mut [u64] {
+        match self {
+            Scratch::Huge(b) => b.as_mut_slice(),
+            Scratch::Small(v) => v,
+        }
+    }
+}
