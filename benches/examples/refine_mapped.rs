@@ -18,11 +18,10 @@ use relief_core::refine::{
 };
 use relief_core::{Camera, Terrain};
 use std::hint::black_box;
-use std::path::PathBuf;
 use std::time::Instant;
 
 mod common;
-use common::{time, upsample, Scratch};
+use common::{time, upsample, Args, Scratch};
 
 fn camera(eye_x: f32) -> Camera {
     Camera::new(
@@ -36,24 +35,12 @@ fn camera(eye_x: f32) -> Camera {
 }
 
 fn main() {
-    let runs: usize = std::env::var("RUNS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(15);
-    let dir = PathBuf::from(std::env::var("SCALE_DIR").unwrap_or_else(|_| "/tmp".into()));
-    let mut factors: Vec<u32> = std::env::args()
-        .skip(1)
-        .map(|a| a.parse().expect("factor"))
-        .collect();
-    if factors.is_empty() {
-        factors = vec![1, 4, 16];
-    }
-    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
-    let base = dem.heightfield().unwrap();
+    let args = Args::get();
+    let (runs, dir) = (args.runs, &args.dir);
+    let base = args.dem.heightfield().unwrap();
     println!("| grid | scratch | tau px | triangles | warm ms (fastest) | cold ms (median) | fly-over ms (mean) |");
     println!("|---|---|---|---|---|---|---|");
-    for f in factors {
+    for &f in &args.factors {
         let n = (base.width() - 1) * f + 1;
         let grid_path = dir.join(format!("relief_scale_{n}.f32"));
         let rec_path = dir.join(format!("relief_scale_{n}.rec"));

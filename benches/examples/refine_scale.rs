@@ -19,31 +19,16 @@ use relief_core::refine::{
     View,
 };
 use relief_core::{Camera, Terrain};
-use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 mod common;
-use common::{time, upsample};
+use common::{time, upsample, Args};
 
 fn main() {
-    let runs: usize = std::env::var("RUNS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(15);
-    let dir = PathBuf::from(std::env::var("SCALE_DIR").unwrap_or_else(|_| "/tmp".into()));
+    let args = Args::get();
+    let (runs, dir) = (args.runs, &args.dir);
     let keep = std::env::var_os("KEEP").is_some();
-    let factors: Vec<u32> = std::env::args()
-        .skip(1)
-        .map(|a| a.parse().expect("factor"))
-        .collect();
-    let factors = if factors.is_empty() {
-        vec![1, 4, 16]
-    } else {
-        factors
-    };
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
-    let base = dem.heightfield().unwrap();
+    let base = args.dem.heightfield().unwrap();
     // A low oblique view over the middle of the map, 3 km up, 1280 x 720, 60 degrees.
     let cam = Camera::new(
         Vec3::new(112_000.0, 82_000.0, 3_000.0),
@@ -56,7 +41,7 @@ fn main() {
     let taus = [1.0f32, 4.0];
     println!("| grid | data (bytes/vertex) | tau px | triangles | warm ms (fastest) | cold ms (median) | M tris/s warm / cold |");
     println!("|---|---|---|---|---|---|---|");
-    for f in factors {
+    for &f in &args.factors {
         let n = (base.width() - 1) * f + 1;
         let path = dir.join(format!("relief_scale_{n}.f32"));
         let t0 = Instant::now();

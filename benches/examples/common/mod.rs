@@ -5,7 +5,7 @@ use relief_core::refine::{scratch_len, Criterion, Hierarchy, Refiner};
 use relief_core::{Heightfield, Terrain};
 use std::hint::black_box;
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Writes the bilinear upsampling of `src` by `f` (`(n - 1) f + 1` samples a side) to `out` as
@@ -102,6 +102,44 @@ impl Scratch {
         match self {
             Scratch::Huge(b) => b.as_mut_slice(),
             Scratch::Small(v) => v,
+        }
+    }
+}
+
+/// What both examples read from the environment and the command line.
+pub struct Args {
+    /// `RUNS` (default 15): frames per measurement.
+    pub runs: usize,
+    /// `SCALE_DIR` (default /tmp): where the upsampled grids go.
+    pub dir: PathBuf,
+    /// The upsampling factors given (default 1 4 16).
+    pub factors: Vec<u32>,
+    /// The bundled Puget Sound DEM.
+    pub dem: relief_io::Dem,
+}
+
+impl Args {
+    /// Reads them.
+    pub fn get() -> Args {
+        let runs = std::env::var("RUNS")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(15);
+        let dir = PathBuf::from(std::env::var("SCALE_DIR").unwrap_or_else(|_| "/tmp".into()));
+        let mut factors: Vec<u32> = std::env::args()
+            .skip(1)
+            .map(|a| a.parse().expect("factor"))
+            .collect();
+        if factors.is_empty() {
+            factors = vec![1, 4, 16];
+        }
+        let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
+        let dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
+        Args {
+            runs,
+            dir,
+            factors,
+            dem,
         }
     }
 }
