@@ -1,5 +1,7 @@
 //! Shared by the out-of-core examples (`refine_scale`, `refine_mapped`): the upsampled test grids
 //! and the warm / cold frame timing.
+// Each example uses part of this module.
+#![allow(dead_code)]
 
 use relief_core::refine::{scratch_len, Criterion, Hierarchy, Refiner};
 use relief_core::{Heightfield, Terrain};

@@ -134,6 +134,54 @@ fn morton(a: u64, b: u64) -> u64 {
     spread(a) | (spread(b) << 1)
 }
 
+/// Gathers the even bits of `v` into the low 32 bits (the inverse of [`spread`]).
+#[inline(always)]
+fn gather(v: u64) -> u64 {
+    let mut v = v & 0x5555_5555_5555_5555;
+    v = (v | (v >> 1)) & 0x3333_3333_3333_3333;
+    v = (v | (v >> 2)) & 0x0f0f_0f0f_0f0f_0f0f;
+    v = (v | (v >> 4)) & 0x00ff_00ff_00ff_00ff;
+    v = (v | (v >> 8)) & 0x0000_ffff_0000_ffff;
+    (v | (v >> 16)) & 0x0000_0000_ffff_ffff
+}
+
+/// The grid point `(x, y)` of interleaved index `k` in a square of side `n = 2^k` (the inverse
+/// of [`interleaved_index`]); `(0, 0)` for indices past `(n + 1)^2`. O(1): the half-size comes
+/// from the index's magnitude (the records of the `j` coarsest half-sizes number
+/// `(2^j + 1)^2 - 4`), the quad from a Morton decode.
+#[inline(always)]
+pub(crate) fn interleaved_coords(n: u64, k: u64) -> (u64, u64) {
+    let corners = (n + 1) * (n + 1) - 4;
+    if k >= corners {
+        let c = k - corners;
+        return (n * (c & 1), n * ((c >> 1) & 1));
+    }
+    // j: the largest with (2^j + 1)^2 - 4 <= k; from the bit length of k + 4, then corrected.
+    let first = |j: u32| ((1u64 << j) + 1) * ((1u64 << j) + 1) - 4;
+    let mut j = (63 - (k + 4).leading_zeros()) / 2;
+    while j > 0 && first(j) > k {
+        j -= 1; // at most twice
+    }
+    while j + 1 < 32 && first(j + 1) <= k {
+        j += 1; // at most twice
+    }
+    let m = 1u64 << j; // quads per side at this half-size
+    let t = n.trailing_zeros().saturating_sub(j + 1); // s = 2^t
+    let off = k - first(j);
+    let (xs, ys) = if off < 3 * m * m {
+        let (q, low) = (off / 3, off % 3);
+        let (a, b) = (gather(q), gather(q >> 1));
+        // low 0: the centre (2a+1, 2b+1); 1: (2a+1, 2b); 2: (2a, 2b+1). Branch-free: the
+        // three kinds alternate, so a branch on them mispredicts.
+        (2 * a + u64::from(low != 2), 2 * b + u64::from(low != 1))
+    } else if off < 3 * m * m + m {
+        (2 * m, 2 * (off - 3 * m * m) + 1)
+    } else {
+        (2 * (off - 3 * m * m - m) + 1, 2 * m)
+    };
+    (xs << t, ys << t)
+}
+
 /// Record index of grid point `(x, y)` (inside the grid) for a layout.
 #[inline(always)]
 pub(crate) fn record_index(layout: RecordLayout, g: &RefineGrid, x: u64, y: u64) -> usize {
@@ -151,7 +199,7 @@ pub(crate) fn record_index(layout: RecordLayout, g: &RefineGrid, x: u64, y: u64)
 /// lower and left edge midpoints `(2a+1, 2b)`, `(2a, 2b+1)`, three records from
 /// `3 * morton(a, b)`, the centre first; the right column `X = 2m` and the top row `Y = 2m` follow.
 #[inline(always)]
-fn interleaved_index(n: u64, x: u64, y: u64) -> u64 {
+pub(crate) fn interleaved_index(n: u64, x: u64, y: u64) -> u64 {
     let bits = x | y;
     let t = bits.trailing_zeros() & 63;
     let s = 1u64 << t;
@@ -459,6 +507,32 @@ const RENEST_MARGIN: f64 = 1.0 / (1u64 << 20) as f64;
 mod index_tests {
     use super::*;
     use std::vec;
+
+    /// `interleaved_coords` inverts `interleaved_index` on every point of squares up to 256.
+    #[test]
+    fn interleaved_coords_inverts_the_index() {
+        for n in [1u64, 2, 4, 8, 16, 64, 256] {
+            for y in 0..=n {
+                for x in 0..=n {
+                    let k = interleaved_index(n, x, y);
+                    assert_eq!(interleaved_coords(n, k), (x, y), "n {n} ({x}, {y}) k {k}");
+                }
+            }
+        }
+        // Large squares: the corners, the centre and points of the finest half-size.
+        for n in [1u64 << 14, 1 << 16, 1 << 20] {
+            for (x, y) in [
+                (0, 0),
+                (n, n),
+                (n / 2, n / 2),
+                (1, 0),
+                (n - 1, n),
+                (12345 % n, 77),
+            ] {
+                assert_eq!(interleaved_coords(n, interleaved_index(n, x, y)), (x, y));
+            }
+        }
+    }
 
     /// The interleaved index is a bijection of the `(N + 1)^2` points onto `0..(N + 1)^2`, and
     /// the coarse levels come first.

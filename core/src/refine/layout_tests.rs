@@ -77,7 +77,8 @@ fn with_full(w: u32, h: u32, seed: u64, f: impl FnOnce(&Heightfield<'_, f32>, &H
 }
 
 /// Both layouts give the same mesh (vertices and triangles, in order), view-independent and
-/// view-dependent with and without culling, on square and non-square grids.
+/// view-dependent with and without culling, on square and non-square grids; view-dependent
+/// frames of interleaved records on square grids number the same vertices in record order.
 #[test]
 fn same_mesh_for_both_layouts() {
     for (w, h, seed) in [(65, 65, 3), (37, 29, 5), (2, 2, 7), (3, 3, 9), (64, 17, 11)] {
@@ -111,8 +112,72 @@ fn same_mesh_case(w: u32, h: u32, hf: &Heightfield<'_, f32>, full: &Hierarchy<'_
         let mut nontrivial = 0;
         for c in crits {
             let (ma, mb) = (list(&a, &hf, c), list(&b, &hf, c));
-            assert_eq!(ma.v, mb.v, "{w}x{h} {c:?}");
-            assert_eq!(ma.t, mb.t, "{w}x{h} {c:?}");
+            let hierarchical = matches!(c, Criterion::View(_)) && full.grid().is_square();
+            if hierarchical {
+                // Interleaved records number a view-dependent frame's vertices in record order:
+                // the same vertices, and the same triangles in the same order, by position.
+                let by_pos = |m: &Mesh| -> Vec<[[u32; 3]; 3]> {
+                    m.t.iter()
+                        .map(|t| t.map(|i| m.v[i as usize].map(f32::to_bits)))
+                        .collect()
+                };
+                assert_eq!(vertex_set(&ma), vertex_set(&mb), "{w}x{h} {c:?}");
+                assert_eq!(ma.v.len(), mb.v.len(), "{w}x{h} {c:?}");
+                assert_eq!(by_pos(&ma), by_pos(&mb), "{w}x{h} {c:?}");
+                if ma.v.len() > 4 {
+                    assert_ne!(ma.v, mb.v, "{w}x{h} {c:?}: expected record order");
+                }
+                // Geomorph data: the same vertices with the same morph, in each list's order.
+                let morph = |hier: &Hierarchy<'_>| {
+                    let r = Refiner::new(hier, &hf, c).unwrap();
+                    let mut out = vec![MorphVertex::default(); (w * h) as usize];
+                    let k = r.morph(&mut vec![0; scratch_len(w, h)], &mut out).unwrap();
+                    out.truncate(k);
+                    out
+                };
+                let (mo_a, mo_b) = (morph(&a), morph(&b));
+                assert_eq!(
+                    mo_a.iter().map(|m| m.position).collect::<Vec<_>>(),
+                    ma.v,
+                    "{w}x{h} {c:?}"
+                );
+                assert_eq!(
+                    mo_b.iter().map(|m| m.position).collect::<Vec<_>>(),
+                    mb.v,
+                    "{w}x{h} {c:?}"
+                );
+                let key = |m: &MorphVertex| (m.position.map(f32::to_bits), m.base_z.to_bits());
+                let mut ka: Vec<_> = mo_a.iter().map(key).collect();
+                let mut kb: Vec<_> = mo_b.iter().map(key).collect();
+                ka.sort();
+                kb.sort();
+                assert_eq!(ka, kb, "{w}x{h} {c:?}");
+                // Strips over the interleaved records draw the same triangles, by position,
+                // as the strips over the linear records.
+                for soar in [false, true] {
+                    let strip_tris = |hier: &Hierarchy<'_>| -> Vec<[[u32; 3]; 3]> {
+                        let r = Refiner::new(hier, &hf, c).unwrap();
+                        let mut sc = vec![0; scratch_len(w, h)];
+                        let mut v = vec![[0.0; 3]; (w * h) as usize];
+                        let mut st = vec![0; strip_bound(w, h)];
+                        let k = if soar {
+                            r.soar_strip(&mut sc, &mut v, &mut st).unwrap()
+                        } else {
+                            r.inout_strip(&mut sc, &mut v, &mut st).unwrap()
+                        };
+                        super::tests::decode(&st[..k.indices])
+                            .iter()
+                            .map(|t| t.map(|i| v[..k.vertices][i as usize].map(f32::to_bits)))
+                            .collect()
+                    };
+                    let (sa, sb) = (strip_tris(&a), strip_tris(&b));
+                    assert!(!sa.is_empty(), "{w}x{h} {c:?}: empty strip");
+                    assert_eq!(sa, sb, "{w}x{h} {c:?} soar {soar}");
+                }
+            } else {
+                assert_eq!(ma.v, mb.v, "{w}x{h} {c:?}");
+                assert_eq!(ma.t, mb.t, "{w}x{h} {c:?}");
+            }
             nontrivial += usize::from(ma.t.len() > 2);
         }
         assert!(w < 4 || nontrivial > 3, "{w}x{h}: too few refined meshes");

@@ -4,7 +4,7 @@
 //! in a bitmap of kept vertices.
 
 use super::grid::{Class, RefineGrid};
-use super::layout::record_index;
+use super::layout::{interleaved_coords, interleaved_index, record_index};
 use super::{ErrorStore, Hierarchy};
 use crate::{Camera, Error, Terrain};
 use glam::Vec4;
@@ -319,7 +319,13 @@ pub(crate) enum Decision {
 ///
 /// Every output call takes `scratch` of [`scratch_len`](super::scratch_len) `u64`s. Vertices
 /// are numbered in row-major order of the grid samples they sit on (by rank in the bitmap of
-/// kept vertices); positions are world units.
+/// kept vertices), except in view-dependent frames over interleaved records
+/// ([`pack_records`](super::pack_records) with [`RecordLayout::Interleaved`]) of a
+/// `(2^k + 1)^2` grid: there they are numbered in the records' order, so that on grids far
+/// larger than the caches a frame's bookkeeping stays as local as its records (the same mesh,
+/// the vertices in another order). Positions are world units.
+///
+/// [`RecordLayout::Interleaved`]: super::RecordLayout::Interleaved
 ///
 /// ```
 /// use relief_core::refine::{preprocess, scratch_len, Criterion, Refiner};
@@ -343,19 +349,32 @@ pub struct Refiner<'h, 't, T: Terrain> {
     pub(crate) g: RefineGrid,
     pub(crate) max_error: f32,
     pub(crate) view: Option<ViewData>,
+    order: BitOrder,
+    /// Whether a vertex's record index equals its bit index (records layouts).
+    record_is_bit: bool,
 }
 
-/// Receives the triangles of a traversal, counter-clockwise seen from +z.
-pub(crate) trait Sink {
-    fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64));
+/// A grid point with its bit index ([`BitOrder::bit`]), computed once, where the traversal
+/// makes the point (the split vertex), and shared by its record load, marks and output.
+pub(crate) type Pt = ((i64, i64), usize);
+
+/// Receives the triangles of the view-dependent traversal, counter-clockwise seen from +z, with
+/// their corners' bit indices.
+pub(crate) trait PtSink {
+    fn tri(&mut self, a: Pt, b: Pt, c: Pt);
 
     /// Whether vertex `m` is already in the mesh. A vertex enters the mesh only when one of the
     /// two triangles of its diamond is split, and the decision is the vertex's (nested), so
     /// the other triangle must split it too: the traversal skips the second decision.
     #[inline(always)]
-    fn seen(&self, _m: (i64, i64)) -> bool {
+    fn seen(&self, _m: Pt) -> bool {
         false
     }
+}
+
+/// Receives the triangles of the view-independent traversal, counter-clockwise seen from +z.
+pub(crate) trait Sink {
+    fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64));
 }
 
 impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
@@ -400,12 +419,30 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             }
             Criterion::View(v) => (0.0, Some(view_data(hierarchy, &v, g)?)),
         };
+        // Hierarchical bit order: view-dependent frames over interleaved records of a square
+        // grid (see `BitOrder`).
+        let hier = view.is_some()
+            && g.is_square()
+            && matches!(
+                hierarchy.errors,
+                ErrorStore::Records(_, super::RecordLayout::Interleaved)
+            );
+        let record_is_bit = hier
+            || matches!(
+                hierarchy.errors,
+                ErrorStore::Records(_, super::RecordLayout::Linear)
+            );
         Ok(Refiner {
             h: hierarchy,
             t: terrain,
             g,
             max_error,
             view,
+            order: BitOrder {
+                w: g.width() as i64,
+                side: hier.then_some(g.side() as u64),
+            },
+            record_is_bit,
         })
     }
 
@@ -586,7 +623,6 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         m.begin_sparse();
         let mut sink = GridSink {
             m: &mut m,
-            w: self.g.width() as i64,
             out: &mut *triangles,
             n: 0,
         };
@@ -639,7 +675,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         }
         need(c.vertices, out.len())?;
         let (bits, _) = split_scratch(scratch, self.g.len());
-        let w = (self.g.width() as usize).max(1); // never 0; the max keeps a panic path out
+        let o = self.order();
         let s = self.h.scale();
         let mut k = 0usize;
         for (wi, &word) in bits.iter().enumerate() {
@@ -647,7 +683,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             while b != 0 {
                 let i = wi * 64 + b.trailing_zeros() as usize;
                 b &= b - 1;
-                let (x, y) = ((i % w) as u32, (i / w) as u32);
+                let (x, y) = o.point(i);
                 let z = self.t.local_z(x, y);
                 let (base, f) = self.morph_of(x, y, z);
                 if let Some(o) = out.get_mut(k) {
@@ -714,11 +750,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         if self.view.is_some() {
             // Sparse: only the words the mesh touches are marked, counted and later cleared.
             m.begin_sparse();
-            let mut sink = MarkSink {
-                m: &mut m,
-                w: self.g.width() as i64,
-                n: 0,
-            };
+            let mut sink = MarkSink { m: &mut m, n: 0 };
             self.walk_all(&mut sink, false);
             let triangles = sink.n;
             let vertices = m.prefix_sparse();
@@ -812,7 +844,24 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         words: impl Iterator<Item = usize>,
         vertices: &mut [[f32; 3]],
     ) {
+        let o = self.order();
         match self.h.errors {
+            ErrorStore::Records(recs, _) if o.hierarchical() => {
+                // Bit k is record k: its height without an index computation.
+                let s = self.h.scale();
+                let mut slots = vertices.iter_mut();
+                for wi in words {
+                    let mut b = bits.get(wi).copied().unwrap_or(0);
+                    while b != 0 {
+                        let k = wi * 64 + b.trailing_zeros() as usize;
+                        b &= b - 1;
+                        let Some(v) = slots.next() else { return };
+                        let (x, y) = o.point(k);
+                        let z = recs.get(k).map_or_else(|| self.t.local_z(x, y), |r| r.z);
+                        *v = [x as f32 * s.dx, y as f32 * s.dy, z + s.z_offset];
+                    }
+                }
+            }
             ErrorStore::Records(recs, layout) if self.view.is_some() => {
                 self.write_positions(bits, words, vertices, |x, y| {
                     recs.get(record_index(layout, &self.g, x as u64, y as u64))
@@ -863,11 +912,19 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         }
     }
 
+    /// The bit order of this frame's marks (see [`BitOrder`]).
+    #[inline(always)]
+    pub(crate) fn order(&self) -> BitOrder {
+        self.order
+    }
+
     /// Traverses both root triangles.
-    pub(crate) fn walk_all<S: Sink>(&self, sink: &mut S, cull_keeps: bool) {
+    pub(crate) fn walk_all<S: PtSink>(&self, sink: &mut S, cull_keeps: bool) {
         let n = self.g.side() as i64;
         let mask = self.view.map_or(0, |v| v.mask);
+        let pt = |p: (i64, i64)| (p, self.order.bit(p));
         for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
+            let (l, r, a) = (pt(l), pt(r), pt(a));
             if self.g.is_square() {
                 self.walk::<S, true>(sink, l, r, a, mask, 0, cull_keeps);
             } else {
@@ -924,12 +981,12 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// Triangle `(l, r, a)`, counter-clockwise, hypotenuse `l-r`, split vertex at `level`.
     /// Recursion depth at most `levels() <= 60`.
     #[allow(clippy::too_many_arguments)]
-    fn walk<S: Sink, const SQUARE: bool>(
+    fn walk<S: PtSink, const SQUARE: bool>(
         &self,
         sink: &mut S,
-        l: (i64, i64),
-        r: (i64, i64),
-        a: (i64, i64),
+        l: Pt,
+        r: Pt,
+        a: Pt,
         planes: u8,
         level: u32,
         cull_keeps: bool,
@@ -938,7 +995,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let class = if SQUARE {
             Class::Inside
         } else {
-            self.g.classify([l, r, a])
+            self.g.classify([l.0, r.0, a.0])
         };
         if class == Class::Outside {
             return;
@@ -947,13 +1004,14 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             sink.tri(l, r, a);
             return;
         }
-        let m = ((l.0 + r.0) / 2, (l.1 + r.1) / 2);
+        let m = ((l.0 .0 + r.0 .0) / 2, (l.0 .1 + r.0 .1) / 2);
+        let m = (m, self.order.bit(m));
         let d = if class == Class::Straddle || sink.seen(m) {
             // (After `seen`, the incoming planes are a superset of those the first decision
             // left active: testing them again below is redundant, never wrong.)
             Decision::Split(planes)
         } else {
-            self.decide(m, planes, level)
+            self.decide_at(m, planes, level)
         };
         match d {
             Decision::Split(p) => {
@@ -972,10 +1030,21 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// The per-vertex decision for in-domain vertex `m` at `level`.
     #[inline(always)]
     pub(crate) fn decide(&self, m: (i64, i64), planes: u8, level: u32) -> Decision {
+        self.decide_at((m, usize::MAX), planes, level)
+    }
+
+    /// [`Self::decide`] with `m`'s bit index known (`usize::MAX`: not known).
+    #[inline(always)]
+    fn decide_at(&self, mi: Pt, planes: u8, level: u32) -> Decision {
+        let m = mi.0;
         let (e, z, r) = match self.h.errors {
             ErrorStore::Records(recs, layout) => {
                 // One 8-byte load: error, height and radius together.
-                let k = record_index(layout, &self.g, m.0 as u64, m.1 as u64);
+                let k = if self.record_is_bit && mi.1 != usize::MAX {
+                    mi.1
+                } else {
+                    record_index(layout, &self.g, m.0 as u64, m.1 as u64)
+                };
                 let Some(rec) = recs.get(k) else {
                     return Decision::Split(planes);
                 };
@@ -1349,6 +1418,49 @@ fn count_bits(bits: &[u64]) -> usize {
     bits.iter().map(|b| b.count_ones() as usize).sum()
 }
 
+/// How grid points map to bits of the marks bitmap, and so the order vertices are numbered in.
+///
+/// Row-major (`y * width + x`) everywhere except view-dependent frames over interleaved
+/// records of a square grid, where bit `k` is the point's record (SOAR's hierarchical order):
+/// a frame's vertices, mostly of coarse levels, then fill a few dense runs of the bitmap and its
+/// rank prefix, as they do in the records, instead of one cache line and one page each on a
+/// large grid (row-major rows of a 16385^2 grid are 2 KiB of bits apart).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BitOrder {
+    w: i64,
+    /// The square's side when hierarchical.
+    side: Option<u64>,
+}
+
+impl BitOrder {
+    #[inline(always)]
+    pub(crate) fn bit(&self, p: (i64, i64)) -> usize {
+        match self.side {
+            None => (p.1 * self.w + p.0) as usize,
+            Some(n) => interleaved_index(n, p.0 as u64, p.1 as u64) as usize,
+        }
+    }
+
+    /// The grid point of bit `i` (row-major: one division; see [`Self::points`] for runs).
+    #[inline(always)]
+    pub(crate) fn point(&self, i: usize) -> (u32, u32) {
+        match self.side {
+            None => {
+                let w = self.w.max(1) as usize; // never 0; the max keeps a panic path out
+                ((i % w) as u32, (i / w) as u32)
+            }
+            Some(n) => {
+                let (x, y) = interleaved_coords(n, i as u64);
+                (x as u32, y as u32)
+            }
+        }
+    }
+
+    pub(crate) fn hierarchical(&self) -> bool {
+        self.side.is_some()
+    }
+}
+
 /// Rank of vertex `i` in the bitmap: its index in the vertex buffer.
 #[inline(always)]
 pub(crate) fn rank(bits: &[u64], prefix: &[u64], i: usize) -> u32 {
@@ -1518,15 +1630,14 @@ impl ViSquare<'_, '_> {
 
 struct MarkSink<'a, 's> {
     m: &'a mut Marks<'s>,
-    w: i64,
     n: usize,
 }
 
-impl Sink for MarkSink<'_, '_> {
+impl PtSink for MarkSink<'_, '_> {
     #[inline(always)]
-    fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64)) {
+    fn tri(&mut self, a: Pt, b: Pt, c: Pt) {
         for p in [a, b, c] {
-            self.m.mark((p.1 * self.w + p.0) as usize);
+            self.m.mark(p.1);
         }
         self.n += 1;
     }
@@ -1535,15 +1646,14 @@ impl Sink for MarkSink<'_, '_> {
 /// Writes triangles as grid indices (while there is room) and marks their vertices.
 struct GridSink<'a, 's, 'o> {
     m: &'a mut Marks<'s>,
-    w: i64,
     out: &'o mut [[u32; 3]],
     n: usize,
 }
 
-impl Sink for GridSink<'_, '_, '_> {
+impl PtSink for GridSink<'_, '_, '_> {
     #[inline(always)]
-    fn seen(&self, m: (i64, i64)) -> bool {
-        let i = (m.1 * self.w + m.0) as usize;
+    fn seen(&self, m: Pt) -> bool {
+        let i = m.1;
         self.m
             .bits
             .get(i >> 6)
@@ -1551,10 +1661,10 @@ impl Sink for GridSink<'_, '_, '_> {
     }
 
     #[inline(always)]
-    fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64)) {
+    fn tri(&mut self, a: Pt, b: Pt, c: Pt) {
         let mut t = [0u32; 3];
         for (o, p) in t.iter_mut().zip([a, b, c]) {
-            let i = (p.1 * self.w + p.0) as usize;
+            let i = p.1;
             self.m.mark(i);
             *o = i as u32;
         }

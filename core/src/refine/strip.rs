@@ -6,7 +6,7 @@
 //! sides are always refined (the four base triangles of SOAR, chapter 4.5). A culled vertex is
 //! treated as inactive: its triangles are drawn coarse (outside the view), as in SOAR.
 
-use super::select::{marks, need, rank, Decision, Marks, Refiner};
+use super::select::{marks, need, rank, BitOrder, Decision, Marks, Refiner};
 use super::StripCounts;
 use crate::{Error, Terrain};
 
@@ -24,20 +24,20 @@ trait Out {
 
 struct Mark<'a, 's> {
     m: &'a mut Marks<'s>,
-    w: i64,
+    o: BitOrder,
 }
 
 impl Out for Mark<'_, '_> {
     #[inline(always)]
     fn put(&mut self, v: P) {
-        self.m.mark((v.1 * self.w + v.0) as usize);
+        self.m.mark(self.o.bit(v));
     }
 }
 
 struct Write<'a, 'o> {
     bits: &'a [u64],
     prefix: &'a [u64],
-    w: i64,
+    o: BitOrder,
     out: &'o mut [u32],
     n: usize,
 }
@@ -46,7 +46,7 @@ impl Out for Write<'_, '_> {
     #[inline(always)]
     fn put(&mut self, v: P) {
         if let Some(o) = self.out.get_mut(self.n) {
-            *o = rank(self.bits, self.prefix, (v.1 * self.w + v.0) as usize);
+            *o = rank(self.bits, self.prefix, self.o.bit(v));
         }
         self.n += 1;
     }
@@ -362,10 +362,10 @@ impl<T: Terrain> Refiner<'_, '_, T> {
         }
         let mut m = marks(scratch, self.g.len())?;
         m.begin_sparse();
-        let w = self.g.width() as i64;
+        let o = self.order();
         let mut pass1 = Strip {
             r: self,
-            out: Mark { m: &mut m, w },
+            out: Mark { m: &mut m, o },
             last: [(-1, -1); 2],
             len: 0,
             tris: 0,
@@ -396,7 +396,7 @@ impl<T: Terrain> Refiner<'_, '_, T> {
             out: Write {
                 bits: m.bits,
                 prefix: m.prefix,
-                w,
+                o,
                 out: strip,
                 n: 0,
             },
