@@ -110,6 +110,12 @@ fn orientation_rays(n: usize) -> Vec<(DVec2, DVec2)> {
         .collect()
 }
 
+/// Not inlined (nor `walk_runs`): every traversal row times the same machine code of each side.
+/// Inlined into each timing closure, the cell DDA's loop landed at different offsets in its
+/// 64-byte line and ran at 0.6-0.75 or 1.0-1.15 ns/cell depending on the closure (see
+/// BENCHMARKS.md, Rays); build with `RUSTFLAGS="-C llvm-args=-align-loops=64"` to pin the
+/// loops' alignment as well.
+#[inline(never)]
 fn walk_cells(lines: &[GridLine]) -> u64 {
     let mut acc = 0u64;
     for l in lines {
@@ -120,6 +126,7 @@ fn walk_cells(lines: &[GridLine]) -> u64 {
     acc
 }
 
+#[inline(never)]
 fn walk_runs(lines: &[GridLine]) -> u64 {
     let mut acc = 0u64;
     for l in lines {

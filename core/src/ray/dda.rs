@@ -306,16 +306,16 @@ impl CellDda {
         }
         let out = (self.u, self.v);
         let e = self.b + l.a;
+        // One branch per cell, on the exit face (the right face `e < q` steps u); the top face
+        // steps v, and the exact corner both, selected without a second branch.
         if e < l.q {
             self.u += 1;
             self.b = e;
-        } else if e > l.q {
-            self.v += 1;
-            self.b -= l.q;
         } else {
-            self.u += 1;
+            let corner = e == l.q;
             self.v += 1;
-            self.b = 0;
+            self.u += i64::from(corner);
+            self.b = if corner { 0 } else { self.b - l.q };
         }
         Some(out)
     }
