@@ -175,3 +175,89 @@ fn bad_input_is_one_line_and_exit_2() {
     assert_eq!(r.status.code(), Some(2));
     assert!(!out.exists(), "no output on errors");
 }
+
+/// `--records-file`: the first run preprocesses and writes the records, the second maps them
+/// (no preprocessing) and writes the same mesh, view-independent and view-dependent, for both
+/// record layouts; a file of another grid, another layout or changed heights is a one-line
+/// error, and so is the option without a records layout.
+#[test]
+fn records_file_is_written_then_mapped_for_the_same_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = write_dem(dir.path(), 33, 33);
+    let base = |layout: &str, rec: &Path, out: &Path, vd: bool| {
+        let mut args = vec![
+            "mesh", "--dem", &dem, "--format", "raw-f32", "--width", "33", "--height", "33",
+            "--layout", layout, "--json",
+        ]
+        .into_iter()
+        .map(String::from)
+        .collect::<Vec<_>>();
+        args.extend(["--records-file".into(), rec.to_str().unwrap().into()]);
+        args.extend(["--out".into(), out.to_str().unwrap().into()]);
+        if vd {
+            args.extend(
+                [
+                    "--eye",
+                    "-10,-10,30",
+                    "--target",
+                    "20,20,0",
+                    "--size",
+                    "320x240",
+                    "--pixel-error",
+                    "1",
+                ]
+                .map(String::from),
+            );
+        } else {
+            args.extend(["--max-error".into(), "0.5".into()]);
+        }
+        args
+    };
+    for layout in ["records", "records-linear"] {
+        let rec = dir.path().join(format!("{layout}.rec"));
+        for vd in [false, true] {
+            let _ = std::fs::remove_file(&rec);
+            let (o1, o2) = (dir.path().join("a.obj"), dir.path().join("b.obj"));
+            let run = |out: &Path| {
+                let a = base(layout, &rec, out, vd);
+                let a: Vec<&str> = a.iter().map(String::as_str).collect();
+                json(&relief(&a))
+            };
+            let first = run(&o1);
+            assert_eq!(first["records_file"], "written", "{layout} vd {vd}");
+            assert!(rec.exists());
+            let second = run(&o2);
+            assert_eq!(second["records_file"], "mapped", "{layout} vd {vd}");
+            assert_eq!(first["triangles"], second["triangles"]);
+            assert!(second["triangles"].as_u64().unwrap() > 2);
+            assert_eq!(
+                std::fs::read(&o1).unwrap(),
+                std::fs::read(&o2).unwrap(),
+                "{layout} vd {vd}: the meshes differ"
+            );
+        }
+    }
+    // Another layout than the file's.
+    let rec = dir.path().join("records.rec");
+    let a = base("records-linear", &rec, &dir.path().join("c.obj"), false);
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    common::assert_one_line_error(&relief(&a), "another layout");
+    // Changed heights, same size: the sampled heights disagree.
+    let other = dir.path().join("other.f32");
+    common::write_f32(&other, &vec![1.0f32; 33 * 33]);
+    let a = base("records", &rec, &dir.path().join("c.obj"), false);
+    let mut a: Vec<&str> = a.iter().map(String::as_str).collect();
+    a[2] = other.to_str().unwrap();
+    common::assert_one_line_error(&relief(&a), "another grid");
+    // Another size.
+    let small = write_dem(dir.path(), 17, 17);
+    let a = base("records", &rec, &dir.path().join("c.obj"), false);
+    let mut a: Vec<&str> = a.iter().map(String::as_str).collect();
+    a[2] = &small;
+    (a[6], a[8]) = ("17", "17");
+    common::assert_one_line_error(&relief(&a), "17x17");
+    // Without a records layout.
+    let a = base("full", &rec, &dir.path().join("c.obj"), false);
+    let a: Vec<&str> = a.iter().map(String::as_str).collect();
+    common::assert_one_line_error(&relief(&a), "--records-file needs --layout records");
+}

@@ -80,6 +80,12 @@ pub struct MeshArgs {
     /// Preprocessed data layout.
     #[arg(long, value_enum, default_value = "full")]
     layout: Layout,
+    /// With --layout records or records-linear: keep the preprocessed records in PATH
+    /// (out-of-core, issue 6). If PATH exists it is memory-mapped instead of preprocessing
+    /// (after checking that it belongs to this grid: size, layout, spacing, sampled heights,
+    /// and every record's validity); otherwise the grid is preprocessed and PATH written.
+    #[arg(long, value_name = "PATH", conflicts_with_all = ["tile_size", "edit"])]
+    records_file: Option<PathBuf>,
     /// Output OBJ file (not with --tile-size, which writes into --out-dir).
     #[arg(long, value_name = "PATH", required_unless_present = "tile_size")]
     out: Option<PathBuf>,
@@ -166,6 +172,15 @@ pub fn run(a: &MeshArgs) -> CliResult {
         };
         return super::mesh_edit::run(&e);
     }
+    if a.records_file.is_some()
+        && (a.detail.detail.is_some()
+            || a.method == Method::Tin
+            || !matches!(a.layout, Layout::Records | Layout::RecordsLinear))
+    {
+        return Err(CliError(
+            "relief mesh --records-file needs --layout records or records-linear (and no --detail or --method tin)".into(),
+        ));
+    }
     if a.detail.detail.is_some() {
         let common = super::mesh_detail::Common {
             dem: &a.dem,
@@ -223,7 +238,17 @@ pub fn run(a: &MeshArgs) -> CliResult {
     let mut errors_c = vec![0u16; if full { 0 } else { n }];
     let t0 = Instant::now();
     let mut records: Vec<VertexRecord>;
-    let hier: Hierarchy<'_> = if full {
+    let mapped_records;
+    let mut records_file = None;
+    let existing = a.records_file.as_ref().filter(|p| p.exists());
+    let hier: Hierarchy<'_> = if let Some(p) = existing {
+        mapped_records = relief_io::MappedRecords::open(p)?;
+        let hm = mapped_records.hierarchy()?;
+        check_records_file(p, &hm, &hf, a.layout)?;
+        mapped_records.advise_random();
+        records_file = Some("mapped");
+        hm
+    } else if full {
         let f = preprocess(&hf, &mut errors_f, &mut radii)?;
         let rl = match a.layout {
             Layout::Records => Some(RecordLayout::Interleaved),
@@ -233,7 +258,12 @@ pub fn run(a: &MeshArgs) -> CliResult {
         match rl {
             Some(rl) => {
                 records = vec![VertexRecord::default(); records_len(w, h, rl)];
-                pack_records(&f, &hf, rl, &mut records)?
+                let packed = pack_records(&f, &hf, rl, &mut records)?;
+                if let Some(p) = &a.records_file {
+                    relief_io::write_records(p, &packed)?;
+                    records_file = Some("written");
+                }
+                packed
             }
             None => f,
         }
@@ -319,6 +349,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
             "max_error_measured": max_err,
             "uncovered_samples": uncovered_n,
             "preprocess_ms": preprocess_ms,
+            "records_file": records_file,
             "refine_ms": refine_ms,
             "refine_reused_ms": refine_reused_ms,
             "strip_length": strip.map(|s| s.indices),
@@ -363,6 +394,56 @@ fn extract<T: Terrain>(
         return Ok(unsafe { r.triangles_popcnt(scratch, vertices, triangles) }?);
     }
     Ok(r.triangles(scratch, vertices, triangles)?)
+}
+
+/// A mapped records file must belong to this grid: its size and layout, its spacing and
+/// vertical scale, and the heights of 4096 samples spread over the grid (plus the corners) must
+/// match, and every record must be valid (`check_records`, one pass over the file).
+fn check_records_file(
+    p: &std::path::Path,
+    hm: &Hierarchy<'_>,
+    hf: &Heightfield<'_, f32>,
+    layout: Layout,
+) -> CliResult {
+    let other = |what: &str| {
+        CliError(format!(
+            "{}: the records file was made for another grid ({what}); delete it to preprocess again",
+            p.display()
+        ))
+    };
+    let (w, h) = (hf.width(), hf.height());
+    let g = hm.grid();
+    if (g.width(), g.height()) != (w, h) {
+        return Err(other(&format!(
+            "{}x{} samples, this one is {w}x{h}",
+            g.width(),
+            g.height()
+        )));
+    }
+    let want = if layout == Layout::Records {
+        RecordLayout::Interleaved
+    } else {
+        RecordLayout::Linear
+    };
+    if hm.records().map(|r| r.1) != Some(want) {
+        return Err(other("another layout"));
+    }
+    if hm.scale() != hf.scale() {
+        return Err(other("another spacing or vertical scale"));
+    }
+    let pts = (0..4096u64)
+        .map(|k| {
+            let i = k * (w as u64 * h as u64 - 1) / 4095;
+            ((i % w as u64) as u32, (i / w as u64) as u32)
+        })
+        .chain([(w - 1, 0), (0, h - 1)]);
+    for (x, y) in pts {
+        if hm.record(x, y).map(|r| r.z) != Some(hf.local_z(x, y)) {
+            return Err(other(&format!("height of sample ({x}, {y})")));
+        }
+    }
+    relief_core::refine::check_records(hm)
+        .map_err(|e| CliError(format!("{}: invalid records file: {e}", p.display())))
 }
 
 fn unreachable_criterion() -> CliResult<Criterion> {

@@ -303,6 +303,33 @@ impl<'a> Hierarchy<'a> {
         }
     }
 
+    /// The record of vertex `(x, y)` for a hierarchy of records ([`pack_records`],
+    /// [`records_hierarchy`]); `None` for other layouts and outside the grid.
+    ///
+    /// ```
+    /// use relief_core::refine::{pack_records, preprocess, records_len, RecordLayout, VertexRecord};
+    /// use relief_core::Heightfield;
+    /// let hf = Heightfield::new(&[0.0f32, 1.0, 2.0, 3.0], 2, 2).unwrap();
+    /// let (mut e, mut r) = ([0.0; 4], [0.0; 4]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// assert!(h.record(1, 1).is_none());
+    /// let mut rec = vec![VertexRecord::default(); records_len(2, 2, RecordLayout::Interleaved)];
+    /// let p = pack_records(&h, &hf, RecordLayout::Interleaved, &mut rec).unwrap();
+    /// assert_eq!(p.record(1, 1).unwrap().z, 3.0);
+    /// assert!(p.record(2, 0).is_none());
+    /// ```
+    #[must_use]
+    pub fn record(&self, x: u32, y: u32) -> Option<VertexRecord> {
+        let ErrorStore::Records(r, layout) = self.errors else {
+            return None;
+        };
+        if x >= self.grid.width() || y >= self.grid.height() {
+            return None;
+        }
+        r.get(layout::record_index(layout, &self.grid, x as u64, y as u64))
+            .copied()
+    }
+
     /// Record index of row-major vertex `i`.
     #[inline(always)]
     fn record_of(&self, i: usize, layout: RecordLayout) -> usize {
