@@ -417,9 +417,10 @@ pub fn records_hierarchy(
 
 /// Checks, in one pass over the grid, that a records [`Hierarchy`] keeps the invariants
 /// [`pack_records`] establishes: every in-domain record has a finite height inside the
-/// hierarchy's z range, an error that is not NaN and not negative (`+inf` only where the vertex
-/// is always kept) and a finite non-negative radius; each vertex's error is at least its
-/// children's and its sphere contains theirs. Returns [`Error::BadSample`] naming the first
+/// hierarchy's z range, an error that is not NaN and not negative (nor `-0`) and a finite
+/// non-negative radius (`+inf` errors are allowed: always kept); each vertex's error is at least
+/// its children's and its sphere contains theirs with [`pack_records`]' relative margin of
+/// 2^-20, so that decisions in floating point stay nested. Returns [`Error::BadSample`] naming the first
 /// vertex (row-major order) that breaks one, or [`Error::InvalidParameter`] for a hierarchy that
 /// is not made of records.
 ///
@@ -452,13 +453,15 @@ pub fn check_records(hierarchy: &Hierarchy<'_>) -> Result<(), Error> {
     let rec = |x: u32, y: u32| recs.get(record_index(layout, &g, x as u64, y as u64));
     let own = |x: u32, y: u32| -> Option<VertexRecord> {
         let r = *rec(x, y)?;
-        let (e, rad) = (r.error_value(), r.radius_value());
+        let e = r.error_value();
         let z_ok = r.z.is_finite() && r.z >= lo && r.z <= hi;
+        // On codes: non-negative (no sign bit, so no -0.0, whose code would compare above
+        // every positive error's) and not NaN; radii finite too.
         let ok = if g.level(x, y).is_none() {
             // A corner of the grid's square: always kept, its radius is never read.
             e == f32::INFINITY
         } else {
-            e >= 0.0 && rad >= 0.0 && rad != f32::INFINITY
+            r.error <= 0x7f80 && r.radius < 0x7f80
         };
         (z_ok && ok).then_some(r)
     };
@@ -491,7 +494,11 @@ pub fn check_records(hierarchy: &Hierarchy<'_>) -> Result<(), Error> {
                     p[2] - c.z as f64,
                 );
                 let d = libm::sqrt(dx * dx + dy * dy + dz * dz);
-                if c.error_value() > e || rad < d + c.radius_value() as f64 {
+                // The margin pack_records re-nests with, so that decisions in floating point
+                // stay nested (a sphere exactly touching its child's is not enough).
+                if c.error_value() > e
+                    || rad < (d + c.radius_value() as f64) * (1.0 + RENEST_MARGIN)
+                {
                     return bad;
                 }
             }

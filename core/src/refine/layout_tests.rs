@@ -402,12 +402,13 @@ fn stored_records_case(w: u32, h: u32, hf: &Heightfield<'_, f32>, full: &Hierarc
             let (cx, cy) = (cx as u32, cy as u32);
             let parent_err = rec[at(x, y)].error;
             type Corrupt = fn(&mut VertexRecord, u16);
-            let cases: [(u32, u32, Corrupt); 5] = [
+            let cases: [(u32, u32, Corrupt); 6] = [
                 (x, y, |r, _| r.error = 0xffc0),                  // NaN error
                 (x, y, |r, _| r.error = 0xbf80),                  // -1
                 (x, y, |r, _| r.z = f32::INFINITY),               // height
                 (x, y, |r, _| r.radius = 0),                      // no longer holds its children
                 (cx, cy, |r, pe| r.error = pe.saturating_add(1)), // above the parent's
+                (x, y, |r, _| r.error = 0x8000),                  // -0 (code above all)
             ];
             for (k, (bx, by, f)) in cases.into_iter().enumerate() {
                 let mut bad = rec.clone();
