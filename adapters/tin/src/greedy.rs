@@ -26,7 +26,7 @@ use crate::scan::{for_each_span, local_heights, orient, Plane};
 use crate::shapes::Shapes;
 use crate::MeshError;
 use relief_core::{Error, Terrain};
-use spade::handles::{FixedFaceHandle, FixedVertexHandle, InnerTag};
+use spade::handles::{FixedDirectedEdgeHandle, FixedFaceHandle, FixedVertexHandle, InnerTag};
 use spade::{DelaunayTriangulation, LastUsedVertexHintGenerator, Point2, Triangulation};
 
 /// Grid coordinates are stored as `f32` (exact up to 2^24; half the memory traffic of `f64` in
@@ -350,11 +350,27 @@ struct Builder<'h> {
 /// One out-edge of a new vertex, see [`Builder::ring`].
 #[derive(Clone, Copy)]
 struct RingEdge {
+    edge: FixedDirectedEdgeHandle,
     face: Option<FixedFaceHandle<InnerTag>>,
-    /// Where spade's corner list of the face starts in `(v, to_k, to_k+1)`.
-    first: u8,
     vertex: u32,
     at: (i64, i64),
+}
+
+/// Where spade's corner list (`vertices()`) of the face left of out-edge `e` of a vertex `v`
+/// starts in `(v, e.to, e.next.to)`: at the origin of the face's adjacent edge's predecessor.
+fn first_corner(dt: &Dt, e: FixedDirectedEdgeHandle) -> usize {
+    let e = dt.directed_edge(e);
+    let Some(face) = e.face().as_inner() else {
+        return 0;
+    };
+    let adjacent = face.adjacent_edge().fix();
+    if adjacent == e.fix() {
+        2
+    } else if adjacent == e.next().fix() {
+        0
+    } else {
+        1
+    }
 }
 
 /// Grid position of a vertex (its coordinates are exact integers).
@@ -365,17 +381,24 @@ fn grid_at(p: Point2<f32>) -> (i64, i64) {
 
 impl Builder<'_> {
     /// Scans the triangle `c` (vertex indices `vs`, corner heights from `corner_z`) and records
-    /// its candidate as face `face`'s; spade lists the face's corners from `c[first]` on.
+    /// its candidate as face `face`'s; spade lists the face's corners from `c[first(dt)]` on
+    /// (asked only for a candidate that goes into the heap: the others never need a hint).
     #[inline]
     fn scan(
         &mut self,
         face: FixedFaceHandle<InnerTag>,
         c: [(i64, i64); 3],
         vs: [u32; 3],
-        first: usize,
+        first: impl FnOnce(&Dt) -> usize,
         corner_z: impl FnOnce() -> [f64; 3],
     ) {
         let (err, x, y) = scan_triangle_z(self.heights, self.width, &mut self.shapes, c, corner_z);
+        let queued = err > self.limit;
+        if !queued {
+            self.heap.set(face.index() as u32, err, x, y, vs[0], false);
+            return;
+        }
+        let first = first(&self.dt);
         // Start spade's point location at the corner nearest the candidate: its walk then
         // ends after one look at that vertex's neighbours.
         let d2 = |k: usize| {
@@ -389,8 +412,7 @@ impl Builder<'_> {
             .map(|k| k % 3)
             .min_by_key(|&k| d2(k))
             .unwrap_or(0);
-        self.heap
-            .set(face.index() as u32, err, x, y, vs[k], err > self.limit);
+        self.heap.set(face.index() as u32, err, x, y, vs[k], true);
     }
 
     /// Scans face `face` of the triangulation.
@@ -400,7 +422,7 @@ impl Builder<'_> {
         let c = vs.map(|v| grid_at(v.position()));
         let vs = vs.map(|v| v.fix().index() as u32);
         let (heights, width) = (self.heights, self.width);
-        self.scan(face, c, vs, 0, || c.map(|p| height(heights, width, p)));
+        self.scan(face, c, vs, |_| 0, || c.map(|p| height(heights, width, p)));
     }
 
     /// Inserts sample `(x, y)` (walking from vertex `hint`); rescans the faces around the new
@@ -426,21 +448,9 @@ impl Builder<'_> {
         let vertex = self.dt.vertex(v);
         ring.extend(vertex.out_edges().map(|e| {
             let to = e.to();
-            let face = e.face().as_inner();
-            let first = face.map_or(0, |f| {
-                let adjacent = f.adjacent_edge().fix();
-                // `vertices()` starts at the origin of the adjacent edge's predecessor.
-                if adjacent == e.fix() {
-                    2
-                } else if adjacent == e.next().fix() {
-                    0
-                } else {
-                    1
-                }
-            });
             RingEdge {
-                face: face.map(|f| f.fix()),
-                first,
+                edge: e.fix(),
+                face: e.face().as_inner().map(|f| f.fix()),
                 vertex: to.fix().index() as u32,
                 at: grid_at(to.position()),
             }
@@ -461,7 +471,7 @@ impl Builder<'_> {
                 face,
                 c,
                 [iv, a.vertex, b.vertex],
-                usize::from(a.first),
+                |dt| first_corner(dt, a.edge),
                 || {
                     [
                         zv,
