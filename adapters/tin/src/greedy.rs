@@ -708,9 +708,10 @@ mod tests {
         out
     }
 
-    /// The shape table gives what the row scan gives, bit for bit (error and sample), on every
-    /// lattice triangle with corners in a 10 x 10 box (corner offsets up to 9, past the table's
-    /// box, so the fallback to the row scan is exercised too), with heights that tie often.
+    /// The shape table gives what the row scan gives, bit for bit (error and sample), on the
+    /// lattice triangles with corners in a 10 x 10 box (every pair of first corners, every third
+    /// position of the last one; corner offsets up to 9, past the table's box, so the fallback to
+    /// the row scan is exercised too), with heights that tie often.
     #[test]
     fn shape_table_scan_equals_row_scan() {
         let n = 10i64;
