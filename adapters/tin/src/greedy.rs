@@ -23,9 +23,10 @@
 
 use crate::heap::FaceHeap;
 use crate::scan::{for_each_span, local_heights, orient, Plane};
+use crate::shapes::Shapes;
 use crate::MeshError;
 use relief_core::{Error, Terrain};
-use spade::handles::{FixedFaceHandle, FixedVertexHandle, InnerTag};
+use spade::handles::{FixedDirectedEdgeHandle, FixedFaceHandle, FixedVertexHandle, InnerTag};
 use spade::{DelaunayTriangulation, LastUsedVertexHintGenerator, Point2, Triangulation};
 
 /// Grid coordinates are stored as `f32` (exact up to 2^24; half the memory traffic of `f64` in
@@ -190,7 +191,34 @@ pub struct Tin {
 
 /// Worst sample of a triangle: `(error, x, y)`; error 0 and the first corner when the triangle
 /// covers no sample but its corners.
+#[cfg(test)]
 fn scan_triangle(heights: &[f32], width: usize, c: [(i64, i64); 3]) -> (f64, u32, u32) {
+    let z = |p: (i64, i64)| height(heights, width, p);
+    scan_triangle_z(heights, width, &mut Shapes::default(), c, || c.map(z))
+}
+
+/// Local height of grid sample `p` (0 outside `heights`, which a valid corner never is).
+#[inline(always)]
+fn height(heights: &[f32], width: usize, p: (i64, i64)) -> f64 {
+    f64::from(
+        heights
+            .get(p.1 as usize * width + p.0 as usize)
+            .map_or(0.0, |&h| h),
+    )
+}
+
+/// [`scan_triangle`] with the corner heights given by `corner_z` (called only if the triangle
+/// covers a sample besides its corners); small triangles read the samples `shapes` lists for
+/// their shape, larger ones are rasterised row by row. Both give the same candidate: the
+/// first sample in row order (`y`, then `x`) with the largest error.
+#[inline]
+fn scan_triangle_z(
+    heights: &[f32],
+    width: usize,
+    shapes: &mut Shapes,
+    c: [(i64, i64); 3],
+    corner_z: impl FnOnce() -> [f64; 3],
+) -> (f64, u32, u32) {
     // A lattice triangle of area 1/2 holds no sample but its corners (Pick's theorem: 2A =
     // 2 interior + boundary - 2, and the corners alone give 2A = 1): nothing to read. Most
     // triangles near full resolution are such, and their corner heights are cache misses.
@@ -198,18 +226,63 @@ fn scan_triangle(heights: &[f32], width: usize, c: [(i64, i64); 3]) -> (f64, u32
     if area2 == 1 {
         return (0.0, c[0].0 as u32, c[0].1 as u32);
     }
-    let z = |x: i64, y: i64| {
-        f64::from(
-            heights
-                .get(y as usize * width + x as usize)
-                .map_or(0.0, |&h| h),
-        )
-    };
+    // The corners in (y, x) order, as the plane takes them.
+    let key = |k: usize| (c[k].1, c[k].0);
+    let mut o = [0usize, 1, 2];
+    if key(o[1]) < key(o[0]) {
+        o.swap(0, 1);
+    }
+    if key(o[2]) < key(o[1]) {
+        o.swap(1, 2);
+    }
+    if key(o[1]) < key(o[0]) {
+        o.swap(0, 1);
+    }
+    let s = o.map(|k| c[k]);
+    let d = |k: usize| (s[k].0 - s[0].0, s[k].1 - s[0].1);
+    if let Some(samples) = shapes.samples(d(1), d(2)) {
+        let mut best = (0.0f64, c[0].0 as u32, c[0].1 as u32);
+        let cz = corner_z();
+        let Some(plane) = Plane::sorted(o.map(|k| (c[k].0, c[k].1, cz[k]))) else {
+            return best;
+        };
+        let base = s[0].1 * width as i64 + s[0].0;
+        let mut best_err = 0.0f64;
+        let mut at = (0i64, 0i64);
+        for &(dx, dy) in samples {
+            let (dx, dy) = (i64::from(dx), i64::from(dy));
+            let h = heights
+                .get((base + dy * width as i64 + dx) as usize)
+                .map_or(0.0, |&h| f64::from(h));
+            let e = (h - plane.at_offset(dx, dy)).abs();
+            if e > best_err {
+                best_err = e;
+                at = (dx, dy);
+            }
+        }
+        if best_err > 0.0 {
+            best = (best_err, (s[0].0 + at.0) as u32, (s[0].1 + at.1) as u32);
+        }
+        return best;
+    }
+    scan_rows(heights, width, c, corner_z(), area2)
+}
+
+/// The row-by-row scan of [`scan_triangle_z`] for triangles of any size: corner heights `cz`,
+/// doubled area `area2`.
+fn scan_rows(
+    heights: &[f32],
+    width: usize,
+    c: [(i64, i64); 3],
+    cz: [f64; 3],
+    area2: i64,
+) -> (f64, u32, u32) {
+    let z = |x: i64, y: i64| height(heights, width, (x, y));
     let mut best = (0.0f64, c[0].0 as u32, c[0].1 as u32);
     let Some(plane) = Plane::new([
-        (c[0].0, c[0].1, z(c[0].0, c[0].1)),
-        (c[1].0, c[1].1, z(c[1].0, c[1].1)),
-        (c[2].0, c[2].1, z(c[2].0, c[2].1)),
+        (c[0].0, c[0].1, cz[0]),
+        (c[1].0, c[1].1, cz[1]),
+        (c[2].0, c[2].1, cz[2]),
     ]) else {
         return best;
     };
@@ -267,35 +340,96 @@ struct Builder<'h> {
     dt: Dt,
     /// Candidate of each face (by spade's face index); the faces above `limit` by error.
     heap: FaceHeap,
-    /// Faces around a new vertex (reused buffer).
-    ring: Vec<FixedFaceHandle<InnerTag>>,
+    /// The out-edges around a new vertex (reused buffer): the edge's face if inner, the far
+    /// vertex's index and grid position.
+    ring: Vec<RingEdge>,
+    /// Samples covered by small triangles, by shape.
+    shapes: Shapes,
+}
+
+/// One out-edge of a new vertex, see [`Builder::ring`].
+#[derive(Clone, Copy)]
+struct RingEdge {
+    edge: FixedDirectedEdgeHandle,
+    face: Option<FixedFaceHandle<InnerTag>>,
+    vertex: u32,
+    at: (i64, i64),
+}
+
+/// Where spade's corner list (`vertices()`) of the face left of out-edge `e` of a vertex `v`
+/// starts in `(v, e.to, e.next.to)`: at the origin of the face's adjacent edge's predecessor.
+fn first_corner(dt: &Dt, e: FixedDirectedEdgeHandle) -> usize {
+    let e = dt.directed_edge(e);
+    let Some(face) = e.face().as_inner() else {
+        return 0;
+    };
+    let adjacent = face.adjacent_edge().fix();
+    if adjacent == e.fix() {
+        2
+    } else if adjacent == e.next().fix() {
+        0
+    } else {
+        1
+    }
+}
+
+/// Grid position of a vertex (its coordinates are exact integers).
+#[inline(always)]
+fn grid_at(p: Point2<f32>) -> (i64, i64) {
+    (p.x as i64, p.y as i64)
 }
 
 impl Builder<'_> {
-    fn scan_face(&mut self, face: FixedFaceHandle<InnerTag>) {
-        let f = self.dt.face(face);
-        let vs = f.vertices();
-        let c = vs.map(|v| {
-            let p = v.position();
-            (p.x as i64, p.y as i64)
-        });
-        let (err, x, y) = scan_triangle(self.heights, self.width, c);
+    /// Scans the triangle `c` (vertex indices `vs`, corner heights from `corner_z`) and records
+    /// its candidate as face `face`'s; spade lists the face's corners from `c[first(dt)]` on
+    /// (asked only for a candidate that goes into the heap: the others never need a hint).
+    #[inline]
+    fn scan(
+        &mut self,
+        face: FixedFaceHandle<InnerTag>,
+        c: [(i64, i64); 3],
+        vs: [u32; 3],
+        first: impl FnOnce(&Dt) -> usize,
+        corner_z: impl FnOnce() -> [f64; 3],
+    ) {
+        let (err, x, y) = scan_triangle_z(self.heights, self.width, &mut self.shapes, c, corner_z);
+        let queued = err > self.limit;
+        if !queued {
+            self.heap.set(face.index() as u32, err, x, y, vs[0], false);
+            return;
+        }
+        let first = first(&self.dt);
         // Start spade's point location at the corner nearest the candidate: its walk then
         // ends after one look at that vertex's neighbours.
         let d2 = |k: usize| {
             let (dx, dy) = (c[k].0 - i64::from(x), c[k].1 - i64::from(y));
             dx * dx + dy * dy
         };
-        let k = (0..3).min_by_key(|&k| d2(k)).unwrap_or(0);
-        let hint = vs[k].fix().index() as u32;
-        self.heap
-            .set(face.index() as u32, err, x, y, hint, err > self.limit);
+        // Corners in spade's order for the face (from its adjacent edge), so that a tie in
+        // distance picks the same hint whichever edge the corners were listed from: the walk
+        // then finds the same edge for a sample on one, and the faces keep the same indices.
+        let k = (first..first + 3)
+            .map(|k| k % 3)
+            .min_by_key(|&k| d2(k))
+            .unwrap_or(0);
+        self.heap.set(face.index() as u32, err, x, y, vs[k], true);
+    }
+
+    /// Scans face `face` of the triangulation.
+    fn scan_face(&mut self, face: FixedFaceHandle<InnerTag>) {
+        let f = self.dt.face(face);
+        let vs = f.vertices();
+        let c = vs.map(|v| grid_at(v.position()));
+        let vs = vs.map(|v| v.fix().index() as u32);
+        let (heights, width) = (self.heights, self.width);
+        self.scan(face, c, vs, |_| 0, || c.map(|p| height(heights, width, p)));
     }
 
     /// Inserts sample `(x, y)` (walking from vertex `hint`); rescans the faces around the new
-    /// vertex. Returns false if the triangulation did not gain a vertex (cannot happen for a
-    /// candidate, which is never an existing vertex; checked so the loop always progresses).
-    fn insert(&mut self, hint: u32, x: u32, y: u32) -> bool {
+    /// vertex. Returns whether face `top` was among them. Returns false as well if the
+    /// triangulation did not gain a vertex (cannot happen for a candidate, which is never an
+    /// existing vertex; checked so the loop always progresses).
+    fn insert(&mut self, hint: u32, x: u32, y: u32, top: u32) -> bool {
         let before = self.dt.num_vertices();
         let hint = FixedVertexHandle::from_index(hint as usize);
         let Ok(v) = self
@@ -307,19 +441,48 @@ impl Builder<'_> {
         if self.dt.num_vertices() != before + 1 {
             return false;
         }
+        // The faces around `v` in counter-clockwise order: the face left of out-edge `k` is
+        // `(v, to_k, to_k+1)`, so every corner position is read once for its two faces.
         let mut ring = std::mem::take(&mut self.ring);
         ring.clear();
-        ring.extend(
-            self.dt
-                .vertex(v)
-                .out_edges()
-                .filter_map(|e| e.face().as_inner().map(|f| f.fix())),
-        );
-        for &f in &ring {
-            self.scan_face(f);
+        let vertex = self.dt.vertex(v);
+        ring.extend(vertex.out_edges().map(|e| {
+            let to = e.to();
+            RingEdge {
+                edge: e.fix(),
+                face: e.face().as_inner().map(|f| f.fix()),
+                vertex: to.fix().index() as u32,
+                at: grid_at(to.position()),
+            }
+        }));
+        let pv = grid_at(vertex.position());
+        let iv = v.index() as u32;
+        let (heights, width) = (self.heights, self.width);
+        let zv = height(heights, width, pv);
+        let mut seen_top = false;
+        for k in 0..ring.len() {
+            let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
+            let Some(face) = a.face else {
+                continue;
+            };
+            seen_top |= face.index() as u32 == top;
+            let c = [pv, a.at, b.at];
+            self.scan(
+                face,
+                c,
+                [iv, a.vertex, b.vertex],
+                |dt| first_corner(dt, a.edge),
+                || {
+                    [
+                        zv,
+                        height(heights, width, a.at),
+                        height(heights, width, b.at),
+                    ]
+                },
+            );
         }
         self.ring = ring;
-        true
+        seen_top
     }
 }
 
@@ -358,6 +521,7 @@ impl Tin {
             dt: Dt::new(),
             heap: FaceHeap::default(),
             ring: Vec::new(),
+            shapes: Shapes::default(),
         };
         let (x1, y1) = ((w - 1) as f32, (h - 1) as f32);
         for p in [(0.0, 0.0), (x1, 0.0), (x1, y1), (0.0, y1)] {
@@ -383,11 +547,15 @@ impl Tin {
                 max_error = Some(err);
                 break;
             }
-            b.heap.pop();
             let cand = b.heap.candidate(face);
-            // A failed insertion is unreachable for a valid triangulation; the face has left
-            // the heap, so the loop still progresses.
-            b.insert(cand.hint, cand.x, cand.y);
+            // The popped face stays at the top while the new vertex's faces are rescanned: the
+            // triangulation reuses its index for one of them, whose rescan then changes its key
+            // in place (one sift instead of a removal and an insertion). Should it not be
+            // among them (a failed insertion, unreachable for a valid triangulation), it
+            // leaves the heap, so the loop always progresses.
+            if !b.insert(cand.hint, cand.x, cand.y, face) {
+                b.heap.remove(face);
+            }
         }
         // Stopped on error: every face's candidate is within the limit; the worst one is the
         // mesh error.
@@ -538,6 +706,40 @@ mod tests {
             }
         }
         out
+    }
+
+    /// The shape table gives what the row scan gives, bit for bit (error and sample), on the
+    /// lattice triangles with corners in a 10 x 10 box (every pair of first corners, every third
+    /// position of the last one; corner offsets up to 9, past the table's box, so the fallback to
+    /// the row scan is exercised too), with heights that tie often.
+    #[test]
+    fn shape_table_scan_equals_row_scan() {
+        let n = 10i64;
+        let heights: Vec<f32> = (0..n * n).map(|i| ((i * 7919) % 5) as f32 * 0.5).collect();
+        let z = |p: (i64, i64)| f64::from(heights[(p.1 * n + p.0) as usize]);
+        let mut shapes = super::Shapes::default();
+        let pts: Vec<(i64, i64)> = (0..n * n).map(|i| (i % n, i / n)).collect();
+        let mut checked = 0usize;
+        for (i, &a) in pts.iter().enumerate() {
+            for &b in &pts[i + 1..] {
+                for &c in &pts {
+                    let area2 = orient(a, b, c);
+                    if area2 < 2 || (c.1 * n + c.0) % 3 != 0 {
+                        continue;
+                    }
+                    let t = [a, b, c];
+                    let want = super::scan_rows(&heights, n as usize, t, t.map(z), area2);
+                    let got =
+                        super::scan_triangle_z(&heights, n as usize, &mut shapes, t, || t.map(z));
+                    assert_eq!(got.0.to_bits(), want.0.to_bits(), "{t:?}");
+                    if want.0 > 0.0 {
+                        assert_eq!((got.1, got.2), (want.1, want.2), "{t:?}");
+                    }
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 50_000, "{checked}");
     }
 
     /// The fast path of `scan_triangle`: a lattice triangle of doubled area 1 covers no sample

@@ -168,11 +168,21 @@ impl FaceHeap {
     }
 
     /// Removes and returns the top.
+    #[cfg(test)]
     pub(crate) fn pop(&mut self) -> Option<(f64, u32)> {
         if self.len == 0 {
             None
         } else {
             Some(self.take(0))
+        }
+    }
+
+    /// Takes `face` out of the heap (keeping its candidate); nothing if it is not in it.
+    pub(crate) fn remove(&mut self, face: u32) {
+        if let Some(pos) = self.faces.get(face as usize).map(|c| c.pos) {
+            if pos != ABSENT {
+                self.take(pos as usize);
+            }
         }
     }
 

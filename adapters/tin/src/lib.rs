@@ -63,6 +63,7 @@ mod compare;
 mod greedy;
 mod heap;
 mod scan;
+mod shapes;
 
 pub use compare::{compare_method, compare_tin, markdown_table, ComparisonRow, GridMesh};
 pub use greedy::{StopReason, Tin, TinOptions};

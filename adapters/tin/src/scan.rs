@@ -26,6 +26,12 @@ impl Plane {
     /// `None` for a degenerate (collinear) triangle.
     pub(crate) fn new(mut p: [(i64, i64, f64); 3]) -> Option<Plane> {
         p.sort_unstable_by_key(|a| (a.1, a.0));
+        Plane::sorted(p)
+    }
+
+    /// [`Plane::new`] of corners already sorted by `(y, x)`.
+    #[inline]
+    pub(crate) fn sorted(p: [(i64, i64, f64); 3]) -> Option<Plane> {
         let [(x0, y0, z0), (x1, y1, z1), (x2, y2, z2)] = p;
         let (ax, ay, az) = ((x1 - x0) as f64, (y1 - y0) as f64, z1 - z0);
         let (bx, by, bz) = ((x2 - x0) as f64, (y2 - y0) as f64, z2 - z0);
@@ -81,6 +87,13 @@ impl Plane {
             .enumerate()
             .position(|(i, &h)| err(i, h) == max)
             .map(|i| (max, i))
+    }
+
+    /// Height over the first sorted corner plus `(dx, dy)`: bit-identical to [`Plane::at_row`]
+    /// and [`Plane::row_max`] there (the same operations in the same order).
+    #[inline(always)]
+    pub(crate) fn at_offset(&self, dx: i64, dy: i64) -> f64 {
+        self.z0 + self.gx * dx as f64 + self.gy * dy as f64
     }
 
     /// Height over `(x, y)` given the row term of `y`: `z0 + gx (x - x0) + gy (y - y0)`.

@@ -491,3 +491,44 @@ fn comparison_rows_match_the_builds() {
     let table = relief_tin::markdown_table(&rows);
     assert_eq!(table.lines().count(), 2 + rows.len());
 }
+
+/// FNV-1a of the vertex and triangle lists (as `examples/tin_time` prints it).
+fn mesh_hash(tin: &Tin) -> u64 {
+    let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    let words = tin.vertices().iter().flatten();
+    for &w in words.chain(tin.triangles().iter().flatten()) {
+        hash = (hash ^ u64::from(w)).wrapping_mul(0x0100_0000_01b3);
+    }
+    hash
+}
+
+/// The speed-ups that followed commit 2eb911d (shape table for small triangles, corners read
+/// from the new vertex's ring, the popped face kept at the top of the heap) leave every mesh
+/// bit-identical: same vertices in the same order, same triangles. The hashes were printed by
+/// `tin_time` built from 2eb911d on these grids (heights with many ties, so that hint and
+/// tie-breaking changes would show).
+#[test]
+fn meshes_are_those_of_the_reference_build() {
+    let g1 = grid(120, 90, |x, y| {
+        ((x * 7 + y * 13) % 17) as f32 * 0.25 + ((x * x + y) % 5) as f32
+    });
+    let g2 = grid(131, 77, |x, y| {
+        (((x * x * 3 + y * y * 5 + x * y) % 23) + (x / 9) * 2 + (y / 7) * 3) as f32
+    });
+    let hf1 = Heightfield::new(&g1, 120, 90).unwrap();
+    let hf2 = Heightfield::new(&g2, 131, 77).unwrap();
+    let cases = [
+        (&hf1, 0.0, 19359, 0x789f_cda9_01a0_26ed),
+        (&hf1, 0.5, 18555, 0xfc2a_87bf_edc6_49d7),
+        (&hf1, 3.0, 7781, 0x5cf5_760f_8e0c_9f1c),
+        (&hf2, 0.0, 19760, 0xb164_a9e5_e3d1_c493),
+        (&hf2, 2.0, 19156, 0x7f26_b7cf_b977_f80b),
+        (&hf2, 6.0, 11786, 0x8e15_f377_a74f_05e3),
+    ];
+    for (hf, e, tris, hash) in cases {
+        let (w, h) = (hf.width(), hf.height());
+        let tin = Tin::build(hf, &TinOptions::default().with_max_error(e)).unwrap();
+        assert_eq!(tin.triangles().len(), tris, "{w}x{h} E={e}");
+        assert_eq!(mesh_hash(&tin), hash, "{w}x{h} E={e}");
+    }
+}
