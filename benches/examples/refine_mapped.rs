@@ -21,16 +21,13 @@
 //! `RUNS=21 cargo run --release -p relief-benches --example refine_mapped -- 1 4 16`
 
 use relief_core::glam::Vec3;
-use relief_core::refine::{
-    hierarchy_len, pack_records, preprocess, records_len, scratch_len, Criterion, RecordLayout,
-    Refiner, VertexRecord, View,
-};
-use relief_core::{Camera, Terrain};
+use relief_core::refine::{scratch_len, Criterion, RecordLayout, Refiner, VertexRecord, View};
+use relief_core::Camera;
 use std::hint::black_box;
 use std::time::Instant;
 
 mod common;
-use common::{upsample, Args, Scratch};
+use common::{mapped_grid, Args, Scratch};
 
 fn camera(eye_x: f32) -> Camera {
     Camera::new(
@@ -53,47 +50,11 @@ fn main() {
     let (runs, dir) = (args.runs, &args.dir);
     let base = args.dem.heightfield().unwrap();
     // Map every grid (writing the files first where they are missing).
-    let mut maps = Vec::new();
-    for &f in &args.factors {
-        let n = (base.width() - 1) * f + 1;
-        let grid_path = dir.join(format!("relief_scale_{n}.f32"));
-        let rec_path = dir.join(format!("relief_scale_{n}.rec"));
-        let s = 160.0 / f as f32;
-        let open_grid = || {
-            let mut g = relief_io::MappedGrid::open(&grid_path, n, n).unwrap();
-            g.scale = g.scale.with_spacing(s, s).with_z_scale(0.1);
-            g.advise_random();
-            g
-        };
-        if !grid_path.exists() {
-            upsample(&base, f, &grid_path);
-        }
-        if !rec_path.exists() {
-            let g = open_grid();
-            let hf = g.heightfield().unwrap();
-            let t0 = Instant::now();
-            let len = hierarchy_len(n, n);
-            let (mut e, mut r) = (vec![0.0f32; len], vec![0.0f32; len]);
-            let full = preprocess(&hf, &mut e, &mut r).unwrap();
-            let mut ri =
-                vec![VertexRecord::default(); records_len(n, n, RecordLayout::Interleaved)];
-            let il = pack_records(&full, &hf, RecordLayout::Interleaved, &mut ri).unwrap();
-            relief_io::write_records(&rec_path, &il).unwrap();
-            eprintln!(
-                "{n}^2: preprocessed and wrote {} in {:.1} s",
-                rec_path.display(),
-                t0.elapsed().as_secs_f64()
-            );
-        }
-        let t0 = Instant::now();
-        let m = relief_io::MappedRecords::open(&rec_path).unwrap();
-        m.advise_random();
-        eprintln!(
-            "{n}^2: records mapped in {:.3} ms",
-            t0.elapsed().as_secs_f64() * 1e3
-        );
-        maps.push((n, open_grid(), m));
-    }
+    let maps: Vec<_> = args
+        .factors
+        .iter()
+        .map(|&f| mapped_grid(&base, f, dir))
+        .collect();
     // The same records copied into anonymous memory with huge pages requested.
     let copies: Vec<_> = maps
         .iter()

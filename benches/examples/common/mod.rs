@@ -3,7 +3,10 @@
 // Each example uses part of this module.
 #![allow(dead_code)]
 
-use relief_core::refine::{scratch_len, Criterion, Hierarchy, Refiner};
+use relief_core::refine::{
+    hierarchy_len, pack_records, preprocess, records_len, scratch_len, Criterion, Hierarchy,
+    RecordLayout, Refiner, VertexRecord,
+};
 use relief_core::{Heightfield, Terrain};
 use std::hint::black_box;
 use std::io::Write;
@@ -144,4 +147,52 @@ impl Args {
             dem,
         }
     }
+}
+
+/// The Puget Sound grid upsampled by `f` as memory-mapped files under `dir`:
+/// `relief_scale_<n>.f32` (the samples, spacing `160 / f` m, z scale 0.1) and
+/// `relief_scale_<n>.rec` (its interleaved records, `relief_io::write_records`), each written
+/// first where missing (16385^2: minutes of preprocessing, once).
+pub fn mapped_grid(
+    base: &Heightfield<'_, f32>,
+    f: u32,
+    dir: &Path,
+) -> (u32, relief_io::MappedGrid, relief_io::MappedRecords) {
+    let n = (base.width() - 1) * f + 1;
+    let grid_path = dir.join(format!("relief_scale_{n}.f32"));
+    let rec_path = dir.join(format!("relief_scale_{n}.rec"));
+    let s = 160.0 / f as f32;
+    let open_grid = || {
+        let mut g = relief_io::MappedGrid::open(&grid_path, n, n).unwrap();
+        g.scale = g.scale.with_spacing(s, s).with_z_scale(0.1);
+        g.advise_random();
+        g
+    };
+    if !grid_path.exists() {
+        upsample(base, f, &grid_path);
+    }
+    if !rec_path.exists() {
+        let g = open_grid();
+        let hf = g.heightfield().unwrap();
+        let t0 = Instant::now();
+        let len = hierarchy_len(n, n);
+        let (mut e, mut r) = (vec![0.0f32; len], vec![0.0f32; len]);
+        let full = preprocess(&hf, &mut e, &mut r).unwrap();
+        let mut ri = vec![VertexRecord::default(); records_len(n, n, RecordLayout::Interleaved)];
+        let il = pack_records(&full, &hf, RecordLayout::Interleaved, &mut ri).unwrap();
+        relief_io::write_records(&rec_path, &il).unwrap();
+        eprintln!(
+            "{n}^2: preprocessed and wrote {} in {:.1} s",
+            rec_path.display(),
+            t0.elapsed().as_secs_f64()
+        );
+    }
+    let t0 = Instant::now();
+    let m = relief_io::MappedRecords::open(&rec_path).unwrap();
+    m.advise_random();
+    eprintln!(
+        "{n}^2: records mapped in {:.3} ms",
+        t0.elapsed().as_secs_f64() * 1e3
+    );
+    (n, open_grid(), m)
 }

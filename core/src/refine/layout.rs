@@ -134,6 +134,31 @@ fn morton(a: u64, b: u64) -> u64 {
     spread(a) | (spread(b) << 1)
 }
 
+/// Where the record of grid point `(x, y)` of a `width x height` grid sits in
+/// [`pack_records`]' output for `layout`; `None` outside the grid or for grids
+/// [`RefineGrid::new`] rejects. For data kept beside the records (or to read one record of a
+/// mapped file).
+///
+/// ```
+/// use relief_core::refine::{record_position, RecordLayout};
+/// assert_eq!(record_position(5, 5, RecordLayout::Linear, 3, 1), Some(8));
+/// // Interleaved: the centre of the square comes first, its corners last.
+/// assert_eq!(record_position(5, 5, RecordLayout::Interleaved, 2, 2), Some(0));
+/// assert_eq!(record_position(5, 5, RecordLayout::Interleaved, 4, 4), Some(24));
+/// assert_eq!(record_position(5, 5, RecordLayout::Linear, 5, 0), None);
+/// ```
+#[must_use]
+pub fn record_position(
+    width: u32,
+    height: u32,
+    layout: RecordLayout,
+    x: u32,
+    y: u32,
+) -> Option<usize> {
+    let g = RefineGrid::new(width, height).ok()?;
+    (x < width && y < height).then(|| record_index(layout, &g, x as u64, y as u64))
+}
+
 /// Gathers the even bits of `v` into the low 32 bits (the inverse of [`spread`]).
 #[inline(always)]
 fn gather(v: u64) -> u64 {

@@ -70,7 +70,8 @@ pub use detail::{
 };
 pub use grid::RefineGrid;
 pub use layout::{
-    check_records, pack_records, records_hierarchy, records_len, RecordLayout, VertexRecord,
+    check_records, pack_records, record_position, records_hierarchy, records_len, RecordLayout,
+    VertexRecord,
 };
 pub use scan::{coverage_len, vertical_error, vertical_error_partial, Uncovered};
 pub use select::{Criterion, FrameCounts, MorphVertex, Refiner, StripCounts, View};
