@@ -29,7 +29,7 @@ fuzz_target!(|data: &[u8]| {
     let e = f32::from(data[3]) * 0.25;
     let dx = 2.0f32;
     let samples: Vec<f32> = (0..w * h)
-        .map(|i| ((i * 2_654_435_761u32) >> 24) as f32 * 0.1)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as f32 * 0.1)
         .collect();
     let sc = Scale::default().with_spacing(dx, dx);
     let hf = Heightfield::with_scale(&samples, w, h, sc).unwrap();

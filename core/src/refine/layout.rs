@@ -443,7 +443,8 @@ pub fn records_hierarchy(
 /// Checks, in one pass over the grid, that a records [`Hierarchy`] keeps the invariants
 /// [`pack_records`] establishes: every in-domain record has a finite height inside the
 /// hierarchy's z range, an error that is not NaN and not negative (nor `-0`) and a finite
-/// non-negative radius (`+inf` errors are allowed: always kept); each vertex's error is at least
+/// non-negative radius (`+inf` errors are allowed: always kept, and required where the vertex's
+/// diamond crosses the domain's border); each vertex's error is at least
 /// its children's and its sphere contains theirs with [`pack_records`]' relative margin of
 /// 2^-20, so that decisions in floating point stay nested. Returns [`Error::BadSample`] naming the first
 /// vertex (row-major order) that breaks one, or [`Error::InvalidParameter`] for a hierarchy that
@@ -482,11 +483,19 @@ pub fn check_records(hierarchy: &Hierarchy<'_>) -> Result<(), Error> {
         let z_ok = r.z.is_finite() && r.z >= lo && r.z <= hi;
         // On codes: non-negative (no sign bit, so no -0.0, whose code would compare above
         // every positive error's) and not NaN; radii finite too.
+        // A vertex whose diamond crosses the domain's border must always be split (+inf), as
+        // preprocessing makes it, or a grid smaller than its square cracks at its border.
+        let straddles = || {
+            g.diamond(x, y)
+                .iter()
+                .flatten()
+                .any(|t| g.classify(*t) == super::grid::Class::Straddle)
+        };
         let ok = if g.level(x, y).is_none() {
             // A corner of the grid's square: always kept, its radius is never read.
             e == f32::INFINITY
         } else {
-            r.error <= 0x7f80 && r.radius < 0x7f80
+            r.error <= 0x7f80 && r.radius < 0x7f80 && (e == f32::INFINITY || !straddles())
         };
         (z_ok && ok).then_some(r)
     };

@@ -430,6 +430,24 @@ fn stored_records_case(w: u32, h: u32, hf: &Heightfield<'_, f32>, full: &Hierarc
                     "{w}x{h} {layout:?} case {k}"
                 );
             }
+            // A grid smaller than its square: a vertex whose diamond crosses the border must
+            // keep its +inf error (always split), or the mesh cracks there.
+            if !g.is_square() {
+                let (fx, fy) = (0..h)
+                    .flat_map(|y| (0..w).map(move |x| (x, y)))
+                    .find(|&(x, y)| {
+                        g.level(x, y).is_some() && rec[at(x, y)].error_value() == f32::INFINITY
+                    })
+                    .expect("a forced vertex");
+                let mut bad = rec.clone();
+                bad[at(fx, fy)].error = 0x3f80; // 1.0
+                let hb = records_hierarchy(&bad, layout, w, h, sc, z).unwrap();
+                assert_eq!(
+                    check_records(&hb),
+                    Err(Error::BadSample { x: fx, y: fy }),
+                    "{w}x{h} {layout:?} forced vertex"
+                );
+            }
         }
     }
 }
