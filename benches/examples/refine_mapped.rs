@@ -20,25 +20,12 @@
 //!
 //! `RUNS=21 cargo run --release -p relief-benches --example refine_mapped -- 1 4 16`
 
-use relief_core::glam::Vec3;
 use relief_core::refine::{scratch_len, Criterion, RecordLayout, Refiner, VertexRecord, View};
-use relief_core::Camera;
 use std::hint::black_box;
 use std::time::Instant;
 
 mod common;
-use common::{mapped_grid, Args, Scratch};
-
-fn camera(eye_x: f32) -> Camera {
-    Camera::new(
-        Vec3::new(eye_x, 82_000.0, 3_000.0),
-        Vec3::new(eye_x - 30_000.0, 82_000.0, 0.0),
-        60.0,
-        1280,
-        720,
-    )
-    .unwrap()
-}
+use common::{camera, mapped_grid, Args, Scratch, BENCH_EYE_X};
 
 fn median(v: &mut [f64]) -> f64 {
     v.sort_by(f64::total_cmp);
@@ -123,7 +110,7 @@ fn main() {
             let mut state: Vec<_> = grids
                 .iter()
                 .map(|(n, hf, h)| {
-                    let r = Refiner::new(h, hf, view(112_000.0)).unwrap();
+                    let r = Refiner::new(h, hf, view(BENCH_EYE_X)).unwrap();
                     let mut scratch = Scratch::new(scratch_len(*n, *n), huge);
                     let tris = r.count(scratch.as_mut_slice()).unwrap().triangles;
                     (scratch, tris, f64::INFINITY, Vec::new(), 0.0)
@@ -135,7 +122,7 @@ fn main() {
                 let x = 122_000.0 - 20_000.0 * k as f32 / runs as f32;
                 for ((_, hf, h), st) in grids.iter().zip(state.iter_mut()) {
                     let scratch = st.0.as_mut_slice();
-                    let r = Refiner::new(h, hf, view(112_000.0)).unwrap();
+                    let r = Refiner::new(h, hf, view(BENCH_EYE_X)).unwrap();
                     let mut frame = || {
                         let s = Instant::now();
                         black_box(r.triangles(scratch, &mut verts, &mut tris).unwrap());

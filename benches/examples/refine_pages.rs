@@ -8,25 +8,17 @@
 //!
 //! `cargo run --release -p relief-benches --example refine_pages -- 1 4 16`
 
-use relief_core::glam::Vec3;
 use relief_core::refine::{record_position, scratch_len, Criterion, RecordLayout, Refiner, View};
-use relief_core::{Camera, Terrain};
+use relief_core::Terrain;
 use std::collections::HashSet;
 
 mod common;
-use common::{mapped_grid, Args};
+use common::{camera, mapped_grid, Args, BENCH_EYE_X};
 
 fn main() {
     let args = Args::get();
     let base = args.dem.heightfield().unwrap();
-    let cam = Camera::new(
-        Vec3::new(112_000.0, 82_000.0, 3_000.0),
-        Vec3::new(82_000.0, 82_000.0, 0.0),
-        60.0,
-        1280,
-        720,
-    )
-    .unwrap();
+    let cam = camera(BENCH_EYE_X);
     println!("| grid | tau px | vertices | records: lines / pages | bitmap row-major: lines / pages | bitmap in record order: lines / pages |");
     println!("|---|---|---|---|---|---|");
     for &f in &args.factors {

@@ -5,15 +5,17 @@
 //!
 //! `cargo run --release -p relief-benches --example refine_probe` (`RUNS=n`, `FILTER="vd tau=1"`)
 
-use relief_core::glam::Vec3;
 use relief_core::refine::{
     hierarchy_len, pack_records, preprocess, preprocess_compact, records_len, scratch_len,
     triangle_bound, Criterion, RecordLayout, Refiner, VertexRecord, View,
 };
-use relief_core::{Camera, Heightfield};
+use relief_core::Heightfield;
 use std::hint::black_box;
 use std::path::Path;
 use std::time::Instant;
+
+mod common;
+use common::{camera, BENCH_EYE_X};
 
 fn main() {
     let runs: usize = std::env::var("RUNS")
@@ -39,14 +41,7 @@ fn main() {
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let mut verts = vec![[0.0f32; 3]; n];
     let mut tris = vec![[0u32; 3]; triangle_bound(w, h)];
-    let cam = Camera::new(
-        Vec3::new(112_000.0, 82_000.0, 3_000.0),
-        Vec3::new(82_000.0, 82_000.0, 0.0),
-        60.0,
-        1280,
-        720,
-    )
-    .unwrap();
+    let cam = camera(BENCH_EYE_X);
     let mut cases: Vec<(String, Criterion)> = Vec::new();
     for e in [5.0f32, 50.0] {
         cases.push((format!("vi E={e}"), Criterion::MaxError(e)));

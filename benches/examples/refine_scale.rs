@@ -13,16 +13,15 @@
 //!
 //! `cargo run --release -p relief-benches --example refine_scale -- 1 4 16`
 
-use relief_core::glam::Vec3;
 use relief_core::refine::{
     hierarchy_len, pack_records, preprocess, records_len, Criterion, RecordLayout, VertexRecord,
     View,
 };
-use relief_core::{Camera, Terrain};
+use relief_core::Terrain;
 use std::time::Instant;
 
 mod common;
-use common::{time, upsample, Args};
+use common::{camera, time, upsample, Args, BENCH_EYE_X};
 
 fn main() {
     let args = Args::get();
@@ -30,14 +29,7 @@ fn main() {
     let keep = std::env::var_os("KEEP").is_some();
     let base = args.dem.heightfield().unwrap();
     // A low oblique view over the middle of the map, 3 km up, 1280 x 720, 60 degrees.
-    let cam = Camera::new(
-        Vec3::new(112_000.0, 82_000.0, 3_000.0),
-        Vec3::new(82_000.0, 82_000.0, 0.0),
-        60.0,
-        1280,
-        720,
-    )
-    .unwrap();
+    let cam = camera(BENCH_EYE_X);
     let taus = [1.0f32, 4.0];
     println!("| grid | data (bytes/vertex) | tau px | triangles | warm ms (fastest) | cold ms (median) | M tris/s warm / cold |");
     println!("|---|---|---|---|---|---|---|");

@@ -1,5 +1,6 @@
-//! Shared by the out-of-core examples (`refine_scale`, `refine_mapped`): the upsampled test grids
-//! and the warm / cold frame timing.
+//! Shared by the refinement examples (`refine_scale`, `refine_mapped`, `refine_pages`,
+//! `refine_probe`): the benchmark camera, the upsampled test grids and the warm / cold frame
+//! timing.
 // Each example uses part of this module.
 #![allow(dead_code)]
 
@@ -195,4 +196,20 @@ pub fn mapped_grid(
         t0.elapsed().as_secs_f64() * 1e3
     );
     (n, open_grid(), m)
+}
+
+/// The eye's x of the benchmark view (metres).
+pub const BENCH_EYE_X: f32 = 112_000.0;
+
+/// The benchmark view over the Puget Sound map: 3 km above `(eye_x, 82 km)`, looking 30 km
+/// along -x down to the ground, 1280 x 720, 60 degrees (`BENCH_EYE_X` is the middle of the map).
+pub fn camera(eye_x: f32) -> relief_core::Camera {
+    relief_core::Camera::new(
+        relief_core::glam::Vec3::new(eye_x, 82_000.0, 3_000.0),
+        relief_core::glam::Vec3::new(eye_x - 30_000.0, 82_000.0, 0.0),
+        60.0,
+        1280,
+        720,
+    )
+    .unwrap()
 }

@@ -507,10 +507,11 @@ pub fn check_records(hierarchy: &Hierarchy<'_>) -> Result<(), Error> {
             }
         }
     }
+    // Every record is valid on its own now; only the nesting is left to check.
     for y in 0..g.height() {
         for x in 0..g.width() {
             let bad = Err(Error::BadSample { x, y });
-            let Some(r) = own(x, y) else {
+            let Some(&r) = rec(x, y) else {
                 return bad;
             };
             let (e, rad) = (r.error_value(), r.radius_value() as f64);
@@ -519,7 +520,7 @@ pub fn check_records(hierarchy: &Hierarchy<'_>) -> Result<(), Error> {
                 if !g.in_domain(cx, cy) {
                     continue;
                 }
-                let Some(c) = own(cx as u32, cy as u32) else {
+                let Some(c) = rec(cx as u32, cy as u32) else {
                     return bad;
                 };
                 let (dx, dy, dz) = (

@@ -157,14 +157,7 @@ fn same_mesh_case(w: u32, h: u32, hf: &Heightfield<'_, f32>, full: &Hierarchy<'_
                 for soar in [false, true] {
                     let strip_tris = |hier: &Hierarchy<'_>| -> Vec<[[u32; 3]; 3]> {
                         let r = Refiner::new(hier, &hf, c).unwrap();
-                        let mut sc = vec![0; scratch_len(w, h)];
-                        let mut v = vec![[0.0; 3]; (w * h) as usize];
-                        let mut st = vec![0; strip_bound(w, h)];
-                        let k = if soar {
-                            r.soar_strip(&mut sc, &mut v, &mut st).unwrap()
-                        } else {
-                            r.inout_strip(&mut sc, &mut v, &mut st).unwrap()
-                        };
+                        let (v, st, k) = super::tests::strip(&r, soar);
                         super::tests::decode(&st[..k.indices])
                             .iter()
                             .map(|t| t.map(|i| v[..k.vertices][i as usize].map(f32::to_bits)))

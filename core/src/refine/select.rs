@@ -350,8 +350,6 @@ pub struct Refiner<'h, 't, T: Terrain> {
     pub(crate) max_error: f32,
     pub(crate) view: Option<ViewData>,
     order: BitOrder,
-    /// Whether a vertex's record index equals its bit index (records layouts).
-    record_is_bit: bool,
 }
 
 /// A grid point with its bit index ([`BitOrder::bit`]), computed once, where the traversal
@@ -427,11 +425,6 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 hierarchy.errors,
                 ErrorStore::Records(_, super::RecordLayout::Interleaved)
             );
-        let record_is_bit = hier
-            || matches!(
-                hierarchy.errors,
-                ErrorStore::Records(_, super::RecordLayout::Linear)
-            );
         Ok(Refiner {
             h: hierarchy,
             t: terrain,
@@ -442,7 +435,6 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 w: g.width() as i64,
                 side: hier.then_some(g.side() as u64),
             },
-            record_is_bit,
         })
     }
 
@@ -1030,20 +1022,23 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// The per-vertex decision for in-domain vertex `m` at `level`.
     #[inline(always)]
     pub(crate) fn decide(&self, m: (i64, i64), planes: u8, level: u32) -> Decision {
-        self.decide_at((m, usize::MAX), planes, level)
+        self.decide_at((m, self.order.bit(m)), planes, level)
     }
 
-    /// [`Self::decide`] with `m`'s bit index known (`usize::MAX`: not known).
+    /// [`Self::decide`] with `m`'s bit index already computed (the traversal's).
     #[inline(always)]
     fn decide_at(&self, mi: Pt, planes: u8, level: u32) -> Decision {
         let m = mi.0;
         let (e, z, r) = match self.h.errors {
             ErrorStore::Records(recs, layout) => {
-                // One 8-byte load: error, height and radius together.
-                let k = if self.record_is_bit && mi.1 != usize::MAX {
-                    mi.1
-                } else {
-                    record_index(layout, &self.g, m.0 as u64, m.1 as u64)
+                // One 8-byte load: error, height and radius together. The record index is the
+                // bit index for linear records and in the hierarchical bit order.
+                let k = match layout {
+                    super::RecordLayout::Linear => mi.1,
+                    super::RecordLayout::Interleaved if self.order.hierarchical() => mi.1,
+                    super::RecordLayout::Interleaved => {
+                        record_index(layout, &self.g, m.0 as u64, m.1 as u64)
+                    }
                 };
                 let Some(rec) = recs.get(k) else {
                     return Decision::Split(planes);
@@ -1441,7 +1436,8 @@ impl BitOrder {
         }
     }
 
-    /// The grid point of bit `i` (row-major: one division; see [`Self::points`] for runs).
+    /// The grid point of bit `i` (row-major: one division per bit; `write_positions` walks
+    /// row-major runs without one).
     #[inline(always)]
     pub(crate) fn point(&self, i: usize) -> (u32, u32) {
         match self.side {

@@ -167,6 +167,24 @@ pub(crate) fn decode(strip: &[u32]) -> Vec<[u32; 3]> {
     out
 }
 
+/// SOAR's strip (`soar`) or the in/out-edge strip of `r` into bound-sized buffers: vertices,
+/// strip indices, counts.
+pub(crate) fn strip<T: Terrain>(
+    r: &Refiner<'_, '_, T>,
+    soar: bool,
+) -> (Vec<[f32; 3]>, Vec<u32>, StripCounts) {
+    let (w, h) = (r.g.width(), r.g.height());
+    let mut sc = vec![0; scratch_len(w, h)];
+    let mut v = vec![[0.0; 3]; (w * h) as usize];
+    let mut st = vec![0; strip_bound(w, h)];
+    let c = if soar {
+        r.soar_strip(&mut sc, &mut v, &mut st).unwrap()
+    } else {
+        r.inout_strip(&mut sc, &mut v, &mut st).unwrap()
+    };
+    (v, st, c)
+}
+
 #[test]
 fn inout_strip_draws_the_list_mesh() {
     strips_draw_the_list_mesh(false);
@@ -191,14 +209,7 @@ fn strips_draw_the_list_mesh(soar: bool) {
         let mut er = vec![0u16; (n * n) as usize];
         let hi = preprocess_compact(&hf, &mut er).unwrap();
         let r = Refiner::new(&hi, &hf, Criterion::MaxError(e)).unwrap();
-        let mut sc = vec![0; scratch_len(n, n)];
-        let mut v = vec![[0.0; 3]; (n * n) as usize];
-        let mut st = vec![0; strip_bound(n, n)];
-        let c = if soar {
-            r.soar_strip(&mut sc, &mut v, &mut st).unwrap()
-        } else {
-            r.inout_strip(&mut sc, &mut v, &mut st).unwrap()
-        };
+        let (v, st, c) = strip(&r, soar);
         let tris = decode(&st[..c.indices]);
         assert_eq!(tris.len(), c.triangles);
         let m = Mesh {
