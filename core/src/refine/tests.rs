@@ -378,3 +378,49 @@ fn finest_level_fast_path_equals_rasterising() {
     }
     assert!(checked > 100);
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// The view-independent selection's two ways (traversal of the kept part, one pass over
+    /// the errors) mark the same vertices with the same ranks, for every error store, and the
+    /// traversal leaves the scratch clean after release.
+    #[test]
+    fn sparse_and_dense_view_independent_selections_agree(
+        w in 2u32..40, h in 2u32..40, seed in 1u64..1000, amp in 0.0f32..100.0, frac in 0.0f32..1.0,
+        square in prop::bool::ANY,
+    ) {
+        let (w, h) = if square { let k = 1 + (w % 5); (1 << k | 1, 1 << k | 1) } else { (w, h) };
+        let s = grid(w, h, seed, amp);
+        let hf = Heightfield::new(&s, w, h).unwrap();
+        let n = hierarchy_len(w, h);
+        let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+        let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+        let mut ec = vec![0u16; n];
+        let compact = preprocess_compact(&hf, &mut ec).unwrap();
+        let mut rl = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Linear)];
+        let lin = pack_records(&full, &hf, RecordLayout::Linear, &mut rl).unwrap();
+        let mut ri = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Interleaved)];
+        let il = pack_records(&full, &hf, RecordLayout::Interleaved, &mut ri).unwrap();
+        let e = frac * amp;
+        let len = scratch_len(w, h);
+        let words = (w as usize * h as usize).div_ceil(64);
+        for hier in [&full, &compact, &lin, &il] {
+            let r = Refiner::new(hier, &hf, Criterion::MaxError(e)).unwrap();
+            let (mut a, mut b) = (vec![0u64; len], vec![u64::MAX; len]);
+            let sa = r.select_within(&mut a, usize::MAX).unwrap();
+            let sb = r.select_within(&mut b, 0).unwrap();
+            prop_assert!(sa.sparse && !sb.sparse);
+            prop_assert_eq!(sa.counts, sb.counts);
+            prop_assert_eq!(&a[..words], &b[..words]);
+            for (k, &word) in a[..words].iter().enumerate() {
+                if word != 0 {
+                    prop_assert_eq!(a[words + k], b[words + k], "rank prefix of word {}", k);
+                }
+            }
+            r.release(&mut a, sa);
+            prop_assert!(a[..words].iter().all(|&x| x == 0));
+            // A clean scratch stays usable: the next selection is the same.
+            prop_assert_eq!(r.select(&mut a).unwrap().counts, sa.counts);
+        }
+    }
+}
