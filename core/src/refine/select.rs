@@ -368,13 +368,6 @@ pub(crate) trait PtSink {
     fn seen(&self, _m: Pt) -> bool {
         false
     }
-
-    /// Whether the traversal should stop descending (a budget ran out): the sink's result is
-    /// then discarded.
-    #[inline(always)]
-    fn full(&self) -> bool {
-        false
-    }
 }
 
 /// Receives the triangles of the view-independent traversal, counter-clockwise seen from +z.
@@ -693,11 +686,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             self.release(scratch, sel);
         }
         need(c.vertices, out.len())?;
-        let (bits, _) = split_scratch(scratch, self.g.len());
         let o = self.order();
         let s = self.h.scale();
         let mut k = 0usize;
-        for (wi, &word) in bits.iter().enumerate() {
+        let mut visit = |wi: usize, word: u64| {
             let mut b = word;
             while b != 0 {
                 let i = wi * 64 + b.trailing_zeros() as usize;
@@ -713,6 +705,18 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                     };
                 }
                 k += 1;
+            }
+        };
+        if let Ok(m) = marks(scratch, self.g.len()) {
+            // Sparse marks: only the touched words are valid.
+            if sel.sparse {
+                for wi in m.touched() {
+                    visit(wi, m.bits.get(wi).copied().unwrap_or(0));
+                }
+            } else {
+                for (wi, &word) in m.bits.iter().enumerate() {
+                    visit(wi, word);
+                }
             }
         }
         self.release(scratch, sel);
@@ -765,13 +769,19 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// Marks the kept vertices in the bitmap, fills the rank prefix, returns the counts.
     ///
     /// View-dependent frames mark sparsely: a traversal marks the words the mesh touches (and
-    /// their summaries), and only those get a rank prefix and are cleared by
-    /// [`Self::release`]. View-independent selection first tries the same traversal of the
-    /// kept part of the hierarchy (nested errors: it stops at the first vertex with error
-    /// `<= E`), which costs O(mesh) instead of O(grid); once the mesh passes
-    /// `1 / VI_SPARSE_SHARE` of the grid's samples in triangles it gives up and writes the
-    /// whole bitmap from the error array in one vectorised pass (same bits either way).
+    /// their summaries, see [`Marks::begin_sparse`]), and only those get a rank prefix and are
+    /// cleared by [`Self::release`]. View-independent
+    /// selection of a square grid whose mesh looks small ([`Self::looks_small`]) takes a
+    /// traversal of the kept part of the hierarchy (nested errors: it stops at the first
+    /// vertex with error `<= E`), which costs O(mesh) instead of O(grid); past
+    /// `1 / VI_SPARSE_SHARE` of the grid's samples in triangles it gives up and, like every
+    /// other view-independent selection, writes the whole bitmap from the error array in one
+    /// vectorised pass (the same vertices either way).
     pub(crate) fn select(&self, scratch: &mut [u64]) -> Result<Selection, Error> {
+        #[cfg(test)]
+        if let (None, Some(limit)) = (self.view, VI_LIMIT.with(|c| c.get())) {
+            return self.select_within(scratch, limit);
+        }
         let limit = if self.view.is_some() {
             usize::MAX
         } else if self.square_vi() && self.looks_small() {
@@ -806,7 +816,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     }
 
     /// [`Self::select`] with the traversal's triangle budget: past `limit` triangles
-    /// (view-independent only) the bitmap is written densely.
+    /// (view-independent, square grids; other grids always) the bitmap is written densely.
     pub(crate) fn select_within(
         &self,
         scratch: &mut [u64],
@@ -815,15 +825,16 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let n = self.g.len();
         let mut m = marks(scratch, n)?;
         m.begin_sparse();
-        let within = if self.view.is_none() && self.square_vi() {
+        let within = if self.view.is_some() {
+            let mut sink = MarkSink { m: &mut m, n: 0 };
+            self.walk_all(&mut sink, false);
+            Some(sink.n)
+        } else if self.square_vi() {
             self.mark_vi_square(&mut m, limit)
         } else {
-            let mut sink = BudgetSink {
-                s: MarkSink { m: &mut m, n: 0 },
-                limit,
-            };
-            self.walk_all(&mut sink, false);
-            (!sink.full()).then_some(sink.s.n)
+            // Other grids' view-independent traversal (`walk_vi`) tests vertices the marks
+            // never reached: it needs the whole bitmap.
+            None
         };
         if let Some(triangles) = within {
             let vertices = m.prefix_sparse();
@@ -931,8 +942,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         c
     }
 
-    /// Leaves the scratch clean after [`Self::select`] (sparse marks: clears the touched
-    /// words; dense: nothing, the next selection starts from scratch).
+    /// Leaves the scratch clean after [`Self::select`] (sparse marks: clears the touched words
+    /// and their summaries; dense: nothing, the next selection clears the bitmap first).
     pub(crate) fn release(&self, scratch: &mut [u64], sel: Selection) {
         if sel.sparse {
             if let Ok(mut m) = marks(scratch, self.g.len()) {
@@ -1122,7 +1133,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         } else {
             self.g.classify([l.0, r.0, a.0])
         };
-        if class == Class::Outside || sink.full() {
+        if class == Class::Outside {
             return;
         }
         if level >= self.g.levels() {
@@ -1384,6 +1395,13 @@ const VI_CHECK: usize = 512;
 
 /// [`ViMark`] gives up as soon as the projected mesh is this many times its budget.
 const VI_PROJECT_FAR: f64 = 16.0;
+
+#[cfg(test)]
+std::thread_local! {
+    /// Tests only: the view-independent budget of this thread's selections (`0`: dense,
+    /// `usize::MAX`: sparse on square grids), instead of the probes' choice.
+    pub(crate) static VI_LIMIT: core::cell::Cell<Option<usize>> = const { core::cell::Cell::new(None) };
+}
 
 /// Probes of [`Refiner::looks_small`].
 const VI_PROBES: u32 = 256;
@@ -1867,25 +1885,6 @@ impl<'a, 's, K: Fn(usize) -> bool> ViMark<'a, 's, K> {
         self.m.mark(m);
         self.walk(a, l, m, depth - 1);
         self.walk(r, a, m, depth - 1);
-    }
-}
-
-/// [`MarkSink`] that gives up after `limit` triangles (view-independent selection: past the
-/// limit one pass over the whole error array is cheaper than the traversal).
-struct BudgetSink<'a, 's> {
-    s: MarkSink<'a, 's>,
-    limit: usize,
-}
-
-impl PtSink for BudgetSink<'_, '_> {
-    #[inline(always)]
-    fn tri(&mut self, a: Pt, b: Pt, c: Pt) {
-        self.s.tri(a, b, c);
-    }
-
-    #[inline(always)]
-    fn full(&self) -> bool {
-        self.s.n > self.limit
     }
 }
 

@@ -404,23 +404,71 @@ proptest! {
         let e = frac * amp;
         let len = scratch_len(w, h);
         let words = (w as usize * h as usize).div_ceil(64);
+        let summary = words.div_ceil(64);
         for hier in [&full, &compact, &lin, &il] {
             let r = Refiner::new(hier, &hf, Criterion::MaxError(e)).unwrap();
-            let (mut a, mut b) = (vec![0u64; len], vec![u64::MAX; len]);
+            // Both scratches start with garbage: any initial contents work.
+            let (mut a, mut b) = (vec![u64::MAX; len], vec![u64::MAX; len]);
             let sa = r.select_within(&mut a, usize::MAX).unwrap();
             let sb = r.select_within(&mut b, 0).unwrap();
-            prop_assert!(sa.sparse && !sb.sparse);
+            let sq = w == h && (w - 1).is_power_of_two();
+            prop_assert!(sa.sparse == sq && !sb.sparse);
             prop_assert_eq!(sa.counts, sb.counts);
-            prop_assert_eq!(&a[..words], &b[..words]);
-            for (k, &word) in a[..words].iter().enumerate() {
-                if word != 0 {
+            for k in 0..words {
+                // Sparse marks summarise the words they touch; the others stay zero.
+                let touched = (a[2 * words + k / 64] >> (k % 64)) & 1 == 1;
+                prop_assert!(touched || a[k] == 0 || !sa.sparse);
+                prop_assert_eq!(a[k], b[k], "bitmap word {}", k);
+                if a[k] != 0 {
                     prop_assert_eq!(a[words + k], b[words + k], "rank prefix of word {}", k);
                 }
             }
             r.release(&mut a, sa);
-            prop_assert!(a[..words].iter().all(|&x| x == 0));
-            // A clean scratch stays usable: the next selection is the same.
+            prop_assert!(a[2 * words..2 * words + summary].iter().all(|&x| x == 0));
+            prop_assert!(!sa.sparse || a[..words].iter().all(|&x| x == 0));
+            // A released scratch stays usable: the next selection and mesh are the same, and
+            // the same as from a zeroed scratch.
             prop_assert_eq!(r.select(&mut a).unwrap().counts, sa.counts);
+            r.release(&mut a, sa);
+            // Whole meshes: dense from a zeroed scratch against sparse from a released and
+            // from a garbage one (square grids; other grids always select densely).
+            select::VI_LIMIT.with(|c| c.set(Some(0)));
+            let m = list(hier, &hf, Criterion::MaxError(e));
+            select::VI_LIMIT.with(|c| c.set(Some(usize::MAX)));
+            let (mut v, mut t) = (vec![[0.0f32; 3]; m.v.len()], vec![[0u32; 3]; m.t.len()]);
+            let ok = r.triangles(&mut a, &mut v, &mut t).is_ok();
+            let mut g = vec![u64::MAX; len];
+            let (mut v2, mut t2) = (v.clone(), t.clone());
+            let ok2 = r.triangles(&mut g, &mut v2, &mut t2).is_ok();
+            select::VI_LIMIT.with(|c| c.set(None));
+            prop_assert!(ok && ok2);
+            prop_assert_eq!((&v, &t), (&m.v, &m.t));
+            prop_assert_eq!((&v2, &t2), (&m.v, &m.t));
+        }
+        // View-dependent frames (sparse marks) from a garbage scratch equal those from a
+        // zeroed one, and so do their strips and morph data.
+        let cam = Camera::new(
+            Vec3::new(-3.0, -2.0, amp + 5.0),
+            Vec3::new(w as f32 / 2.0, h as f32 / 2.0, 0.0),
+            60.0,
+            320,
+            200,
+        )
+        .unwrap();
+        let view = View::new(&cam, 0.5).unwrap().with_geomorph(Some(2.0));
+        for hier in [&full, &compact, &lin, &il] {
+            let r = Refiner::new(hier, &hf, Criterion::View(view)).unwrap();
+            let (mut z, mut g) = (vec![0u64; len], vec![u64::MAX; len]);
+            let n = w as usize * h as usize;
+            let out = |s: &mut [u64]| {
+                let (mut v, mut t) = (vec![[0.0f32; 3]; n], vec![[0u32; 3]; 2 * n]);
+                let c = r.triangles(s, &mut v, &mut t).unwrap();
+                let mut mv = vec![MorphVertex::default(); n];
+                let k = r.morph(s, &mut mv).unwrap();
+                (c, v, t, k, mv)
+            };
+            let (first, second) = (out(&mut z), out(&mut g));
+            prop_assert!(first == second);
         }
     }
 }
