@@ -846,8 +846,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 sparse: true,
             });
         }
-        // The budget ran out (view-independent): the summaries are stale, and the next sparse
-        // selection clears everything (`begin_sparse`).
+        // Dense (view-independent: the probes' choice, the budget ran out, or not a square
+        // grid): the summaries are stale, and the next sparse selection clears everything
+        // (`begin_sparse`).
         m.dense();
         let (bits, prefix) = (m.bits, m.prefix);
         let triangles = {
@@ -1376,21 +1377,13 @@ pub(crate) fn need(needed: usize, actual: usize) -> Result<(), Error> {
     }
 }
 
-/// The scratch's parts: the bitmap of kept vertices (one bit per grid sample), the rank
-/// prefix (one `u64` per bitmap word), a summary bitmap (one bit per bitmap word that has a
-/// mark), a top summary (one bit per summary word that has a mark) and a marker word.
-/// View-dependent refinement marks sparsely: it counts, numbers and clears only the words its
-/// mesh touches (found through the two summaries, so that not even the summary is scanned
-/// whole: on a 16385^2 grid it has 65,536 words), so its cost follows the output, not the
-/// grid; it leaves the bitmap and summaries zero and the marker [`CLEAN`], and clears
-/// everything first when the marker says otherwise (a first call, garbage, or a
-/// view-independent call, which overwrites the whole bitmap).
-/// View-independent selection traverses the hierarchy while the mesh has at most
-/// `samples / VI_SPARSE_SHARE` triangles, and scans the error array beyond (see
-/// [`Refiner::select`]).
+/// View-independent selection of a mesh the probes find small traverses the hierarchy while
+/// the mesh has at most `samples / VI_SPARSE_SHARE` triangles, and scans the error array
+/// beyond (see [`Refiner::select`]).
 const VI_SPARSE_SHARE: usize = 16;
 
-/// How often (in triangles) [`ViMark`] projects the mesh from the area done.
+/// How often (in triangles) [`ViMark`] checks its budget and projects the mesh from the area
+/// done.
 const VI_CHECK: usize = 512;
 
 /// [`ViMark`] gives up as soon as the projected mesh is this many times its budget.
@@ -1414,6 +1407,15 @@ pub(crate) struct Selection {
     pub(crate) sparse: bool,
 }
 
+/// The scratch's parts: the bitmap of kept vertices (one bit per grid sample), the rank
+/// prefix (one `u64` per bitmap word), a summary bitmap (one bit per bitmap word that has a
+/// mark), a top summary (one bit per summary word that has a mark) and a marker word.
+/// View-dependent refinement (and view-independent refinement of a small mesh on a square
+/// grid) marks sparsely: it counts, numbers and clears only the words its mesh touches (found
+/// through the two summaries, so that not even the summary is scanned whole: on a 16385^2
+/// grid it has 65,536 words), so its cost follows the output, not the grid; it leaves the bitmap and summaries zero and the marker [`CLEAN`], and clears
+/// everything first when the marker says otherwise (a first call, garbage, or a dense
+/// view-independent call, which overwrites the whole bitmap).
 pub(crate) struct Marks<'s> {
     pub(crate) bits: &'s mut [u64],
     pub(crate) prefix: &'s mut [u64],
