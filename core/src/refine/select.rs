@@ -824,12 +824,13 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     ) -> Result<Selection, Error> {
         let n = self.g.len();
         let mut m = marks(scratch, n)?;
-        m.begin_sparse();
         let within = if self.view.is_some() {
+            m.begin_sparse();
             let mut sink = MarkSink { m: &mut m, n: 0 };
             self.walk_all(&mut sink, false);
             Some(sink.n)
-        } else if self.square_vi() {
+        } else if self.square_vi() && limit > 0 {
+            m.begin_sparse();
             self.mark_vi_square(&mut m, limit)
         } else {
             // Other grids' view-independent traversal (`walk_vi`) tests vertices the marks
@@ -1413,9 +1414,10 @@ pub(crate) struct Selection {
 /// View-dependent refinement (and view-independent refinement of a small mesh on a square
 /// grid) marks sparsely: it counts, numbers and clears only the words its mesh touches (found
 /// through the two summaries, so that not even the summary is scanned whole: on a 16385^2
-/// grid it has 65,536 words), so its cost follows the output, not the grid; it leaves the bitmap and summaries zero and the marker [`CLEAN`], and clears
-/// everything first when the marker says otherwise (a first call, garbage, or a dense
-/// view-independent call, which overwrites the whole bitmap).
+/// grid it has 65,536 words), so its cost follows the output, not the grid; it leaves the
+/// bitmap and summaries zero and the marker [`CLEAN`], and clears everything first when the
+/// marker says otherwise (a first call, garbage, or a dense view-independent call, which
+/// overwrites the whole bitmap).
 pub(crate) struct Marks<'s> {
     pub(crate) bits: &'s mut [u64],
     pub(crate) prefix: &'s mut [u64],
@@ -1426,6 +1428,10 @@ pub(crate) struct Marks<'s> {
 
 /// Marker of a scratch whose bitmap and summaries are all zero.
 const CLEAN: u64 = 0x7265_6c69_6566_c1ea;
+
+/// Marker of a scratch being marked sparsely (started clean: [`Marks::end_sparse`] may leave it
+/// clean again); any other value but [`CLEAN`] means nothing is known.
+const SPARSE: u64 = 0x7265_6c69_6566_5a5e;
 
 /// `u64`s of scratch for a grid of `n` samples: bitmap, prefix, summary, top summary, marker.
 pub(crate) const fn marks_len(n: usize) -> usize {
@@ -1478,7 +1484,7 @@ impl Marks<'_> {
             self.summary.fill(0);
             self.top.fill(0);
         }
-        *self.marker = 0;
+        *self.marker = SPARSE;
     }
 
     /// Before the whole bitmap is overwritten.
@@ -1538,8 +1544,13 @@ impl Marks<'_> {
         acc as usize
     }
 
-    /// Clears the marked words and the summaries; the scratch is clean again.
+    /// Clears the marked words and the summaries; the scratch is clean again. Only after
+    /// [`Self::begin_sparse`]: otherwise (a dense selection since) nothing is cleared and the
+    /// scratch stays unknown to the next selection.
     pub(crate) fn end_sparse(&mut self) {
+        if *self.marker != SPARSE {
+            return;
+        }
         for si in set_bits(self.top) {
             let Some(s) = self.summary.get_mut(si) else {
                 continue;
@@ -1857,11 +1868,12 @@ impl<'a, 's, K: Fn(usize) -> bool> ViMark<'a, 's, K> {
     }
 
     /// Counts a triangle of `2^depth` leaf triangles' area. Past the budget (checked every
-    /// `VI_CHECK` triangles, and at the end) the traversal gives up; it also projects the mesh from the share of the
-    /// area done so far (the traversal covers the square once) and gives up early past
-    /// `VI_PROJECT_FAR` times the budget, so that a large mesh the probes missed costs the
-    /// dense pass only a small prefix of the traversal. (A closer projection is not reliable:
-    /// rough and flat regions of a real DEM come in long runs of the traversal order.)
+    /// `VI_CHECK` triangles, and at the end) the traversal gives up; it also projects the mesh
+    /// from the share of the area done so far (the traversal covers the square once) and gives
+    /// up early past `VI_PROJECT_FAR` times the budget, so that a large mesh the probes missed
+    /// costs the dense pass only a small prefix of the traversal. (A closer projection is not
+    /// reliable: rough and flat regions of a real DEM come in long runs of the traversal
+    /// order.)
     #[inline(always)]
     fn emit(&mut self, depth: u32) {
         self.n += 1;
