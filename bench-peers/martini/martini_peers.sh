@@ -8,7 +8,10 @@
 # `relief mesh --json`, which include allocating the output; martini: createTile / getMesh;
 # pymartini: create_tile / get_mesh, which allocate fresh output arrays too). relief's
 # refine_reused_ms (the same extraction into the already-touched buffers, as a library user
-# refining every frame gets) is reported next to it, never instead of it.
+# refining every frame gets) is reported next to it, never instead of it, and so is
+# refine_fresh_repeat_ms: fresh output buffers on each of 3 calls in one process, the fastest,
+# which is the peers' own protocol (best of REPS calls in one process, each allocating its
+# output, where the allocator hands a call the memory the previous one freed).
 #
 # usage: bench-peers/martini/martini_peers.sh   (env: REPS=5, DATA=../shared/data, RELIEF=path)
 # prints one JSON line per tool, DEM and E, then a Markdown table (summary.py).
@@ -57,21 +60,23 @@ for spec in "${specs[@]}"; do
     n=$(.venv/bin/python prep.py "$src" "$fmt" "$raw")
     for e in $ES; do
         for layout in full compact; do
-            bp=""; br=""; bu=""; line=""
+            bp=""; br=""; bu=""; bf=""; line=""
             for _ in $(seq "$REPS"); do
                 line=$("$RELIEF" mesh --dem "$raw" --format raw-f32 --width "$n" --height "$n" \
                     --max-error "$e" --layout "$layout" --out "$tmp/m.obj" --json)
                 p=$(echo "$line" | .venv/bin/python -c "import json,sys; print(json.load(sys.stdin)['preprocess_ms'])")
                 r=$(echo "$line" | .venv/bin/python -c "import json,sys; print(json.load(sys.stdin)['refine_ms'])")
                 u=$(echo "$line" | .venv/bin/python -c "import json,sys; print(json.load(sys.stdin)['refine_reused_ms'])")
+                f=$(echo "$line" | .venv/bin/python -c "import json,sys; print(json.load(sys.stdin)['refine_fresh_repeat_ms'])")
                 bp=$(.venv/bin/python -c "print(min(float('$p'), float('${bp:-inf}')))")
                 bu=$(.venv/bin/python -c "print(min(float('$u'), float('${bu:-inf}')))")
+                bf=$(.venv/bin/python -c "print(min(float('$f'), float('${bf:-inf}')))")
                 br=$(.venv/bin/python -c "print(min(float('$r'), float('${br:-inf}')))")
             done
             echo "$line" | .venv/bin/python -c "
 import json,sys
 d=json.load(sys.stdin)
-print(json.dumps({'dem':'$name','tool':'relief-$layout','n':$n,'E':$e,'create_ms':$bp,'mesh_ms':$br,'mesh_reused_ms':$bu,
+print(json.dumps({'dem':'$name','tool':'relief-$layout','n':$n,'E':$e,'create_ms':$bp,'mesh_ms':$br,'mesh_reused_ms':$bu,'mesh_fresh_repeat_ms':$bf,
  'triangles':d['triangles'],'vertices':d['vertices'],'measured':d['max_error_measured']}))" | tee -a "$out"
         done
     done

@@ -63,6 +63,7 @@ fn view_independent_mesh_writes_obj_and_stays_within_e() {
             assert!(v["preprocess_ms"].as_f64().unwrap() >= 0.0);
             assert!(v["refine_ms"].as_f64().unwrap() >= 0.0);
             assert!(v["refine_reused_ms"].as_f64().unwrap() >= 0.0);
+            assert!(v["refine_fresh_repeat_ms"].as_f64().unwrap() >= 0.0);
             assert_eq!(v["strip_length"].is_u64(), square, "{w}x{h}");
         }
     }
