@@ -708,15 +708,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             }
         };
         if let Ok(m) = marks(scratch, self.g.len()) {
-            // Sparse marks: only the touched words are valid.
-            if sel.sparse {
-                for wi in m.touched() {
-                    visit(wi, m.bits.get(wi).copied().unwrap_or(0));
-                }
-            } else {
-                for (wi, &word) in m.bits.iter().enumerate() {
-                    visit(wi, word);
-                }
+            for wi in m.selected_words(sel.sparse) {
+                visit(wi, m.bits.get(wi).copied().unwrap_or(0));
             }
         }
         self.release(scratch, sel);
@@ -913,20 +906,14 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             ErrorStore::Bf16(errs) => ViMark::run(m, limit, self.g.side(), depth, |i| {
                 errs.get(i).is_none_or(|&c| c > ce)
             }),
-            ErrorStore::Records(recs, layout) => {
-                let w = self.g.width() as usize;
+            // Linear records are indexed like the grid; interleaved ones through `err_at`.
+            ErrorStore::Records(recs, super::RecordLayout::Linear) => {
                 ViMark::run(m, limit, self.g.side(), depth, |i| {
-                    let k = match layout {
-                        super::RecordLayout::Linear => i,
-                        super::RecordLayout::Interleaved => {
-                            // (`checked_*`: `w` is never 0, and no panic path is compiled.)
-                            let x = i.checked_rem(w).unwrap_or(0) as u64;
-                            let y = i.checked_div(w).unwrap_or(0) as u64;
-                            record_index(layout, &self.g, x, y)
-                        }
-                    };
-                    recs.get(k).is_none_or(|r| r.error > ce)
+                    recs.get(i).is_none_or(|r| r.error > ce)
                 })
+            }
+            ErrorStore::Records(_, super::RecordLayout::Interleaved) => {
+                ViMark::run(m, limit, self.g.side(), depth, |i| self.h.err_at(i) > e)
             }
         }
     }
@@ -965,11 +952,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let Ok(m) = marks(scratch, self.g.len()) else {
             return;
         };
-        if sel.sparse {
-            self.write_vertices_in(m.bits, m.touched(), vertices);
-        } else {
-            self.write_vertices_in(m.bits, 0..m.bits.len(), vertices);
-        }
+        self.write_vertices_in(m.bits, m.selected_words(sel.sparse), vertices);
     }
 
     /// Writes the positions of the marked vertices of bitmap words `words` (increasing).
@@ -1524,6 +1507,17 @@ impl Marks<'_> {
             let s = summary.get(si..=si).unwrap_or(&[]);
             set_bits(s).map(move |b| si * 64 + b)
         })
+    }
+
+    /// The words a selection's vertices are in, increasing: the touched ones of sparse marks,
+    /// every word of dense ones.
+    pub(crate) fn selected_words(&self, sparse: bool) -> impl Iterator<Item = usize> + '_ {
+        let dense = (!sparse).then_some(0..self.bits.len());
+        let touched = sparse.then(|| self.touched());
+        dense
+            .into_iter()
+            .flatten()
+            .chain(touched.into_iter().flatten())
     }
 
     /// Rank prefix of the marked words; returns the number of marked vertices.
