@@ -1,11 +1,16 @@
 //! Preprocessing timings on the bundled Puget Sound DEM (1025 x 1025): fastest of `RUNS`
 //! (default 20) runs of `preprocess` (full layout, f32 error and radius) and
-//! `preprocess_compact` (bfloat16 error), and a checksum of the output (the same checksum means
-//! the same bits).
+//! `preprocess_compact` (bfloat16 error), each also with the min/max block pyramid that prunes
+//! the large triangles' scans (`preprocess_pyramid`, `preprocess_compact_pyramid`, the pyramid
+//! built inside the timing), and a checksum of the output (the same checksum means the same
+//! bits; the pruned variants must give the same bits, asserted).
 //!
 //! `cargo run --release -p relief-benches --example refine_pre` (`RUNS=n`)
 
-use relief_core::refine::{hierarchy_len, preprocess, preprocess_compact};
+use relief_core::refine::{
+    hierarchy_len, preprocess, preprocess_compact, preprocess_compact_pyramid, preprocess_pyramid,
+    pyramid_len, PreprocessOptions,
+};
 use relief_core::Heightfield;
 use std::hint::black_box;
 use std::path::Path;
@@ -39,11 +44,26 @@ fn main() {
     let compact = fastest(runs, || {
         black_box(preprocess_compact(&hf, &mut c).unwrap());
     });
+    let mut pyr = vec![0.0f32; pyramid_len(dem.width, dem.height)];
+    let (mut e2, mut r2, mut c2) = (vec![0.0f32; n], vec![0.0f32; n], vec![0u16; n]);
+    let full_pyr = fastest(runs, || {
+        let o = PreprocessOptions::default();
+        black_box(preprocess_pyramid(&hf, &mut e2, &mut r2, &mut pyr, o).unwrap());
+    });
+    let compact_pyr = fastest(runs, || {
+        black_box(preprocess_compact_pyramid(&hf, &mut c2, &mut pyr).unwrap());
+    });
+    assert!(
+        e == e2 && r == r2 && c == c2,
+        "the pruned preprocessing differs"
+    );
     let mut sum = 0u64;
     for ((a, b), k) in e.iter().zip(&r).zip(&c) {
         sum = sum
             .rotate_left(5)
             .wrapping_add(u64::from(a.to_bits()) ^ (u64::from(b.to_bits()) << 32) ^ u64::from(*k));
     }
-    println!("preprocess full {full:8.3} ms  compact {compact:8.3} ms  checksum {sum:016x}");
+    println!(
+        "preprocess full {full:8.3} ms  compact {compact:8.3} ms  with the pyramid: full {full_pyr:8.3} ms  compact {compact_pyr:8.3} ms  checksum {sum:016x}"
+    );
 }

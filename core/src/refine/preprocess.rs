@@ -263,42 +263,7 @@ pub(crate) fn shape(
     }
 }
 
-/// Computes and stores the nested error (and radius) of vertex `(x, y)` (half-size `h`, pass
-/// `pass` as in [`shape`]) from its diamond and its children's stored values (which must be
-/// final). Vertices of the two finest levels (`h` = 1 or 2) whose `(2h + 1)^2` neighbourhood
-/// lies in the domain take [`vertex_near`], the others [`vertex_general`]; both store
-/// bit-identical values (tested).
-#[inline]
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn vertex<T: Terrain, E: ErrorSink + ?Sized>(
-    t: &T,
-    g: &RefineGrid,
-    (x, y, h, pass): (i64, i64, i64, usize),
-    errors: &mut E,
-    radii: Option<&mut [f32]>,
-    contain_corners: bool,
-    pruning: Option<Pruning<'_>>,
-) {
-    if FAST_FINEST.get() && h <= 2 && x >= h && y >= h && g.in_domain(x + h, y + h) {
-        if h == 1 {
-            vertex_near::<1, 9, T, E>(t, g, (x, y, pass), errors, radii, contain_corners);
-        } else {
-            vertex_near::<2, 25, T, E>(t, g, (x, y, pass), errors, radii, contain_corners);
-        }
-    } else {
-        vertex_general(
-            t,
-            g,
-            (x, y, h, pass),
-            errors,
-            radii,
-            contain_corners,
-            pruning,
-        );
-    }
-}
-
-/// Whether [`vertex`] may take [`vertex_near`] (always outside tests; tests switch it off to
+/// Whether [`near_row`] may take [`vertex_near`] (always outside tests; tests switch it off to
 /// compare against [`vertex_general`], the reference).
 #[cfg(not(test))]
 struct FastFinest;
@@ -331,6 +296,7 @@ fn nb_at<const H: i64, const S: usize>(nb: &[f64; S], q: (i64, i64)) -> f64 {
 /// form with the same plane formula (a plane depends only on coordinate differences, so relative
 /// coordinates give the same values), which constant coordinates let the compiler fold.
 #[inline(always)]
+#[cfg(test)]
 fn small_error<const S: usize>(nb: &[f64; S], p: [(i64, i64); 3]) -> f64 {
     let at = |q: (i64, i64)| nb_at::<1, S>(nb, q);
     let z = [at(p[0]), at(p[1]), at(p[2])];
@@ -353,52 +319,134 @@ fn small_error<const S: usize>(nb: &[f64; S], p: [(i64, i64); 3]) -> f64 {
     e
 }
 
+/// The plane of triangle `p` (coordinates relative to a vertex, each in `-H..=H`) through its
+/// corners' heights in the `(2H + 1)^2` neighbourhood `nb`; `None` if degenerate.
+#[inline(always)]
+fn near_plane<const H: i64, const S: usize>(nb: &[f64; S], p: [(i64, i64); 3]) -> Option<Plane> {
+    let z = |k: usize| nb_at::<H, S>(nb, p[k]);
+    Plane::new([
+        (p[0].0, p[0].1, z(0)),
+        (p[1].0, p[1].1, z(1)),
+        (p[2].0, p[2].1, z(2)),
+    ])
+}
+
 /// L-infinity error of a triangle given in coordinates relative to its vertex (each in
 /// `-H..=H`), heights from the `(2H + 1)^2` neighbourhood `nb`: the maximum of the rasterising
 /// path's very terms `|h - plane|` over the same samples (those of the closed triangle, tested
 /// against the rasteriser by `raster`'s tests), in another order (a maximum does not depend on
-/// it). With constant coordinates the loops unroll and the inside tests fold.
-#[inline(always)]
+/// it). Lists the samples at run time (the tests' reference for [`near_triangle_error`]).
+#[cfg(test)]
 fn box_error<const H: i64, const S: usize>(nb: &[f64; S], p: [(i64, i64); 3]) -> f64 {
-    let z = [
-        nb_at::<H, S>(nb, p[0]),
-        nb_at::<H, S>(nb, p[1]),
-        nb_at::<H, S>(nb, p[2]),
-    ];
-    let Some(plane) = Plane::new([
-        (p[0].0, p[0].1, z[0]),
-        (p[1].0, p[1].1, z[1]),
-        (p[2].0, p[2].1, z[2]),
-    ]) else {
+    let Some(plane) = near_plane::<H, S>(nb, p) else {
         return 0.0;
     };
-    let sg = super::raster::orient(p[0], p[1], p[2]).signum();
+    let (list, n) = inside_offsets(H, p);
     let mut e = 0.0f64;
-    for dy in -H..=H {
-        for dx in -H..=H {
-            let q = (dx, dy);
-            let o = super::raster::orient;
-            if o(p[0], p[1], q) * sg >= 0
-                && o(p[1], p[2], q) * sg >= 0
-                && o(p[2], p[0], q) * sg >= 0
-            {
-                let d = (nb_at::<H, S>(nb, q) - plane.at(dx, dy)).abs();
-                e = if d > e { d } else { e };
-            }
-        }
+    for &(dx, dy) in list.get(..n).unwrap_or(&[]) {
+        let (dx, dy) = (i64::from(dx), i64::from(dy));
+        let d = (nb_at::<H, S>(nb, (dx, dy)) - plane.at(dx, dy)).abs();
+        e = if d > e { d } else { e };
     }
     e
+}
+
+/// [`box_error`] of triangle `K` (0 or 1) of the diamond of shape `P` ([`NearShape`]) of a vertex
+/// of half-size `H`: the same terms over the same samples, each sample a constant of its own
+/// (written out, not looped over, so that its coordinates fold into the plane formula whatever
+/// the unroller decides; samples past the triangle's count are compile-time no-ops). Serves
+/// `H = 1` as well, where the samples are the corners and the midpoints of the even edges.
+#[inline(always)]
+fn near_triangle_error<const H: i64, const S: usize, const P: u8, const K: usize>(
+    nb: &[f64; S],
+) -> f64 {
+    let p = NearShape::<H, P>::DIAMOND[K];
+    let Some(plane) = near_plane::<H, S>(nb, p) else {
+        return 0.0;
+    };
+    let (list, n) = NearShape::<H, P>::INSIDE[K];
+    let mut e = 0.0f64;
+    macro_rules! samples {
+        ($($k:literal)*) => {$(
+            if $k < n {
+                let (dx, dy) = (i64::from(list[$k].0), i64::from(list[$k].1));
+                let d = (nb_at::<H, S>(nb, (dx, dy)) - plane.at(dx, dy)).abs();
+                e = if d > e { d } else { e };
+            }
+        )*};
+    }
+    samples!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24);
+    e
+}
+
+/// The samples `(dx, dy)` of the closed lattice triangle `p` (coordinates relative to a vertex,
+/// each in `-h..=h`, `h <= 2`) in row order (`dy`, then `dx`), and how many (at most 25).
+const fn inside_offsets(h: i64, p: [(i64, i64); 3]) -> ([(i8, i8); 25], usize) {
+    use super::raster::orient;
+    let mut out = [(0i8, 0i8); 25];
+    let mut n = 0usize;
+    let sg = orient(p[0], p[1], p[2]).signum();
+    let mut dy = -h;
+    while dy <= h {
+        let mut dx = -h;
+        while dx <= h {
+            let q = (dx, dy);
+            if orient(p[0], p[1], q) * sg >= 0
+                && orient(p[1], p[2], q) * sg >= 0
+                && orient(p[2], p[0], q) * sg >= 0
+                && n < out.len()
+            {
+                out[n] = (dx as i8, dy as i8);
+                n += 1;
+            }
+            dx += 1;
+        }
+        dy += 1;
+    }
+    (out, n)
+}
+
+/// The diamond (two triangles) of a finest-level vertex of half-size `h` and shape `p` (as in
+/// [`vertex_near`]), relative to the vertex: the sets of [`shape`] (tested), corners listed as
+/// there.
+const fn near_diamond(h: i64, p: u8) -> [[(i64, i64); 3]; 2] {
+    match p {
+        0 => [[(-h, 0), (h, 0), (0, h)], [(h, 0), (-h, 0), (0, -h)]],
+        1 => [[(0, -h), (0, h), (-h, 0)], [(0, h), (0, -h), (h, 0)]],
+        2 => [[(-h, -h), (h, -h), (h, h)], [(-h, -h), (h, h), (-h, h)]],
+        _ => [[(-h, -h), (h, -h), (-h, h)], [(h, -h), (h, h), (-h, h)]],
+    }
+}
+
+/// Compile-time data of a finest-level vertex shape: half-size `H`, shape `P` (as in
+/// [`vertex_near`]).
+struct NearShape<const H: i64, const P: u8>;
+
+impl<const H: i64, const P: u8> NearShape<H, P> {
+    /// The diamond, [`near_diamond`].
+    const DIAMOND: [[(i64, i64); 3]; 2] = near_diamond(H, P);
+    /// The samples of each of its triangles, [`inside_offsets`].
+    const INSIDE: [([(i8, i8); 25], usize); 2] = [
+        inside_offsets(H, Self::DIAMOND[0]),
+        inside_offsets(H, Self::DIAMOND[1]),
+    ];
 }
 
 /// [`vertex_general`] for a vertex of half-size `H` (1 or 2; `S = (2H + 1)^2`) at `(x, y)`
 /// whose `(2H + 1)^2` neighbourhood lies in the domain (so every triangle is inside and every
 /// corner and child in the domain): the heights are read once, the diamond's two planes are
 /// built in relative coordinates, and the arithmetic is otherwise the same, in the same order.
+///
+/// `P` is the vertex's shape: 0 an edge vertex of pass 0, 1 of pass 1, 2 a centre whose square is
+/// cut along its main diagonal, 3 along the other one. As a constant it makes every relative
+/// coordinate below a constant, so the plane formulas and the inside tests fold (each shape is
+/// its own copy: one copy for all four, choosing the coordinates at run time, took about three
+/// times the instructions).
 #[inline(always)]
-fn vertex_near<const H: i64, const S: usize, T: Terrain, E: ErrorSink + ?Sized>(
+fn vertex_near<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSink + ?Sized>(
     t: &T,
     g: &RefineGrid,
-    (x, y, pass): (i64, i64, usize),
+    (x, y): (i64, i64),
     errors: &mut E,
     radii: Option<&mut [f32]>,
     contain_corners: bool,
@@ -424,62 +472,45 @@ fn vertex_near<const H: i64, const S: usize, T: Terrain, E: ErrorSink + ?Sized>(
     let edge_h = [(-h, 0), (h, 0), (0, h), (0, -h)];
     let edge_v = [(0, -h), (0, h), (-h, 0), (h, 0)];
     let square = [(-h, -h), (h, -h), (-h, h), (h, h)];
-    let k = (2 * H).trailing_zeros();
-    match pass {
-        0 => near_store::<H, S, T, E>(
+    match P {
+        0 => near_store::<H, S, P, T, E>(
             t,
             g,
             (x, y),
             &nb,
-            [
-                [edge_h[0], edge_h[1], edge_h[2]],
-                [edge_h[1], edge_h[0], edge_h[3]],
-            ],
             edge_h,
             kids_of_edge,
             errors,
             radii,
             contain_corners,
         ),
-        1 => near_store::<H, S, T, E>(
+        1 => near_store::<H, S, P, T, E>(
             t,
             g,
             (x, y),
             &nb,
-            [
-                [edge_v[0], edge_v[1], edge_v[2]],
-                [edge_v[1], edge_v[0], edge_v[3]],
-            ],
             edge_v,
             kids_of_edge,
             errors,
             radii,
             contain_corners,
         ),
-        _ if (((x - h) >> k) + ((y - h) >> k)) & 1 == 0 => near_store::<H, S, T, E>(
+        2 => near_store::<H, S, P, T, E>(
             t,
             g,
             (x, y),
             &nb,
-            [
-                [square[0], square[1], square[3]],
-                [square[0], square[3], square[2]],
-            ],
             square,
             &centre_kids,
             errors,
             radii,
             contain_corners,
         ),
-        _ => near_store::<H, S, T, E>(
+        _ => near_store::<H, S, P, T, E>(
             t,
             g,
             (x, y),
             &nb,
-            [
-                [square[0], square[1], square[2]],
-                [square[1], square[3], square[2]],
-            ],
             square,
             &centre_kids,
             errors,
@@ -489,18 +520,84 @@ fn vertex_near<const H: i64, const S: usize, T: Terrain, E: ErrorSink + ?Sized>(
     }
 }
 
-/// The rest of [`vertex_near`] for one diamond shape: `diamond`, `corners` (its four distinct
-/// corners) and `kids` relative to `(x, y)`. The radius takes one square root for all corners
+/// One vertex of a finest-level row (see [`near_row`]): [`vertex_near`] with shape `P` when its
+/// `(2H + 1)^2` neighbourhood lies in the domain, else [`vertex_general`].
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn near_one<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSink + ?Sized>(
+    t: &T,
+    g: &RefineGrid,
+    (x, y, pass): (i64, i64, usize),
+    fast_row: bool,
+    errors: &mut E,
+    radii: Option<&mut [f32]>,
+    contain_corners: bool,
+    pruning: Option<Pruning<'_>>,
+) {
+    if fast_row && x >= H && g.in_domain(x + H, y) {
+        vertex_near::<H, S, P, T, E>(t, g, (x, y), errors, radii, contain_corners);
+    } else {
+        vertex_general(
+            t,
+            g,
+            (x, y, H, pass),
+            errors,
+            radii,
+            contain_corners,
+            pruning,
+        );
+    }
+}
+
+/// The vertices `x_first, x_first + 2H, ..., <= x_end` of row `y` of a pass with half-size `H`
+/// (1 or 2; `S = (2H + 1)^2`), alternately of shape `PA` and `PB` (as in [`vertex_near`]; the
+/// same for edge vertices, the two diagonals for centres, starting with `x_first`'s). Vertices
+/// whose `(2H + 1)^2` neighbourhood lies in the domain take [`vertex_near`], the others
+/// [`vertex_general`]; both store bit-identical values (tested). Never inlined: each
+/// instantiation keeps its shapes' constants (merged copies chose them at run time).
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+fn near_row<const H: i64, const S: usize, const PA: u8, const PB: u8, T, E>(
+    t: &T,
+    g: &RefineGrid,
+    (y, pass): (i64, usize),
+    (x_first, x_end): (i64, i64),
+    errors: &mut E,
+    mut radii: Option<&mut [f32]>,
+    contain_corners: bool,
+    pruning: Option<Pruning<'_>>,
+) where
+    T: Terrain,
+    E: ErrorSink + ?Sized,
+{
+    let fast_row = FAST_FINEST.get() && y >= H && g.in_domain(0, y + H);
+    let mut x = x_first;
+    // Two vertices per turn, one of each shape, one after the other (not one body choosing its
+    // shape). At most `(x_end - x_first) / 2H + 1` vertices.
+    while x <= x_end {
+        let (r, e) = (radii.as_deref_mut(), &mut *errors);
+        near_one::<H, S, PA, T, E>(t, g, (x, y, pass), fast_row, e, r, contain_corners, pruning);
+        x += 2 * H;
+        if x > x_end {
+            break;
+        }
+        let (r, e) = (radii.as_deref_mut(), &mut *errors);
+        near_one::<H, S, PB, T, E>(t, g, (x, y, pass), fast_row, e, r, contain_corners, pruning);
+        x += 2 * H;
+    }
+}
+
+/// The rest of [`vertex_near`] for one diamond shape `P` ([`NearShape`]), `corners` (its four
+/// distinct corners) and `kids` relative to `(x, y)`. The radius takes one square root for all corners
 /// (`sqrt` is correctly rounded, hence monotone: the square root of the largest squared distance
 /// is the largest distance, bit for bit).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn near_store<const H: i64, const S: usize, T: Terrain, E: ErrorSink + ?Sized>(
+fn near_store<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSink + ?Sized>(
     t: &T,
     g: &RefineGrid,
     (x, y): (i64, i64),
     nb: &[f64; S],
-    diamond: [[(i64, i64); 3]; 2],
     corners: [(i64, i64); 4],
     kids: &[(i64, i64)],
     errors: &mut E,
@@ -513,15 +610,9 @@ fn near_store<const H: i64, const S: usize, T: Terrain, E: ErrorSink + ?Sized>(
     for &kq in kids {
         c = c.max(errors.get(idx(kq)));
     }
-    let mut e = 0.0f64;
-    for tri in diamond {
-        let te = if H == 1 {
-            small_error(nb, tri)
-        } else {
-            box_error::<H, S>(nb, tri)
-        };
-        e = e.max(te);
-    }
+    let e = 0.0f64
+        .max(near_triangle_error::<H, S, P, 0>(nb))
+        .max(near_triangle_error::<H, S, P, 1>(nb));
     errors.put(idx((0, 0)), round_up(e).max(c));
     if let Some(r) = radii {
         let s = t.scale();
@@ -652,18 +743,31 @@ pub(crate) fn pass_range<T: Terrain, E: ErrorSink + ?Sized>(
     };
     let mut y = first(y0, y_lo);
     while y <= ye {
-        let mut x = first(x0, x_lo);
-        while x <= xe {
-            vertex(
-                t,
-                g,
-                (x, y, h, pass),
-                errors,
-                radii.as_deref_mut(),
-                contain_corners,
-                pruning,
-            );
-            x += step;
+        let xs = (first(x0, x_lo), xe);
+        let (r, e, cc, pr) = (radii.as_deref_mut(), &mut *errors, contain_corners, pruning);
+        // Centres: whether the square of the row's first vertex is cut along its main diagonal
+        // (as in [`shape`]); the next one's is not.
+        let main = || {
+            let k = step.trailing_zeros();
+            ((((xs.0 - h) >> k) + ((y - h) >> k)) & 1) == 0
+        };
+        match (h, pass) {
+            (1, 0) => near_row::<1, 9, 0, 0, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+            (1, 1) => near_row::<1, 9, 1, 1, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+            (1, _) if main() => near_row::<1, 9, 2, 3, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+            (1, _) => near_row::<1, 9, 3, 2, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+            (2, 0) => near_row::<2, 25, 0, 0, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+            (2, 1) => near_row::<2, 25, 1, 1, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+            (2, _) if main() => near_row::<2, 25, 2, 3, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+            (2, _) => near_row::<2, 25, 3, 2, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+            _ => {
+                let mut x = xs.0;
+                while x <= xe {
+                    let (r, e) = (radii.as_deref_mut(), &mut *errors);
+                    vertex_general(t, g, (x, y, h, pass), e, r, contain_corners, pruning);
+                    x += step;
+                }
+            }
         }
         y += step;
     }
@@ -869,6 +973,55 @@ mod fast_tests {
     /// Every preprocessing entry point stores bit-identical errors and radii with the
     /// finest-level fast path and with the general (reference) path, on grids of many shapes
     /// (odd, even, tiny, non-square), four terrains, unit and non-unit scales, both sphere kinds.
+    /// The compile-time tables of the finest levels ([`super::NearShape`]) are the grid's own
+    /// diamonds ([`super::shape`]) and the rasteriser's samples ([`super::super::raster`]).
+    #[test]
+    fn near_shapes_are_the_grid_diamonds_and_their_samples() {
+        use super::super::grid::RefineGrid;
+        use super::super::raster::for_each_span;
+        use super::{inside_offsets, near_diamond, shape};
+        let g = RefineGrid::new(33, 33).unwrap();
+        for h in [1i64, 2] {
+            // A vertex of each shape: edge passes at (3h, 2h) and (2h, 3h); centres at (3h, 3h)
+            // and (5h, 3h), whose squares are cut along the two different diagonals.
+            let cases = [
+                (0u8, 3 * h, 2 * h, 0),
+                (1, 2 * h, 3 * h, 1),
+                (2, 3 * h, 3 * h, 2),
+                (3, 5 * h, 3 * h, 2),
+            ];
+            for (p, x, y, pass) in cases {
+                let (d, _) = shape(&g, x, y, h, pass);
+                let want: Vec<_> = d
+                    .iter()
+                    .map(|t| t.unwrap().map(|q| (q.0 - x, q.1 - y)))
+                    .collect();
+                let got = near_diamond(h, p);
+                // The same triangles (as corner sets); which diagonal a centre takes decides `p`.
+                let norm = |t: [(i64, i64); 3]| {
+                    let mut t = t.to_vec();
+                    t.sort();
+                    t
+                };
+                let mut a: Vec<_> = want.iter().map(|&t| norm(t)).collect();
+                let mut b: Vec<_> = got.iter().map(|&t| norm(t)).collect();
+                a.sort();
+                b.sort();
+                assert_eq!(a, b, "h {h} shape {p}");
+                for t in got {
+                    let (list, n) = inside_offsets(h, t);
+                    let mut spans = Vec::new();
+                    for_each_span(t[0], t[1], t[2], |yy, lo, hi| {
+                        for xx in lo..=hi {
+                            spans.push((xx as i8, yy as i8));
+                        }
+                    });
+                    assert_eq!(list[..n].to_vec(), spans, "h {h} shape {p} {t:?}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn finest_fast_path_is_bit_identical() {
         let sizes = [

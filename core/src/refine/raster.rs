@@ -125,7 +125,7 @@ pub(crate) fn span_deviation<T: Terrain>(t: &T, plane: &Plane, y: i64, lo: i64, 
 
 /// Twice the signed area of `(a, b, c)`: positive when counter-clockwise (y up).
 #[inline(always)]
-pub(crate) fn orient(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> i64 {
+pub(crate) const fn orient(a: (i64, i64), b: (i64, i64), c: (i64, i64)) -> i64 {
     (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0)
 }
 
