@@ -314,6 +314,8 @@ fn traversal_table() {
         || (0..rep).map(|_| walk_float_aw(black_box(&frays))).sum(),
         || (0..rep).map(|_| walk_runs(black_box(&lines))).sum(),
     );
+    // `rep` passes over the lines (the chunked row above timed 10).
+    let per = (rep as u64 * cells) as f64;
     println!(
         "| traversal, 256 orientations: textbook f64 Amanatides & Woo (A, bench-only) vs run DDA (B) | {:.2} ns/cell | {:.2} ns/cell | {r:.2} |",
         a / per * 1e9,

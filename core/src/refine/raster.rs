@@ -50,35 +50,6 @@ impl Plane {
         self.z0 + self.gx * (x - self.x0) as f64 + self.gy * (y - self.y0) as f64
     }
 
-    /// `max_k |hs[k] - at(x + k, y)|` (0 for an empty slice) with [`Plane::at`]'s very terms:
-    /// the row's part `gy (y - y0)` is computed once and `(x + k - x0)` is carried as an exact
-    /// `f64` counter, so every term is bit for bit `at`'s; four independent maxima (a maximum
-    /// does not depend on the order) let the loop vectorise.
-    #[inline]
-    pub(crate) fn row_deviation(&self, hs: &[f32], x: i64, y: i64) -> f64 {
-        let cy = self.gy * (y - self.y0) as f64;
-        let x0 = (x - self.x0) as f64;
-        let mut acc = [0.0f64; 4];
-        let mut xs = [x0, x0 + 1.0, x0 + 2.0, x0 + 3.0];
-        let mut quads = hs.chunks_exact(4);
-        for q in &mut quads {
-            for ((a, xk), &h) in acc.iter_mut().zip(xs.iter_mut()).zip(q) {
-                let d = (h as f64 - ((self.z0 + self.gx * *xk) + cy)).abs();
-                *a = if d > *a { d } else { *a };
-                *xk += 4.0;
-            }
-        }
-        let [mut m, a1, a2, a3] = acc;
-        for (&h, k) in quads.remainder().iter().zip(0u32..) {
-            let d = (h as f64 - ((self.z0 + self.gx * (xs[0] + f64::from(k))) + cy)).abs();
-            m = if d > m { d } else { m };
-        }
-        for a in [a1, a2, a3] {
-            m = if a > m { a } else { m };
-        }
-        m
-    }
-
     /// Bounds `(lo, hi)` on the values [`Plane::at`] computes over the rectangle
     /// `[x0, x1] x [y0, y1]` (`x0 <= x1`, `y0 <= y1`): the corner values widened by a margin
     /// (`2^-40` of the largest term) far above the few ulps of rounding `at` can add, so that
@@ -101,26 +72,51 @@ impl Plane {
     }
 }
 
-/// Samples per [`span_deviation`] chunk.
-const SPAN_CHUNK: usize = 64;
-
-/// `max |h - plane|` over the samples `lo..=hi` of row `y` (in the grid): heights read a chunk
-/// at a time with [`Terrain::local_z_row`] (bit for bit `local_z`), each chunk by
-/// [`Plane::row_deviation`]. Loops `(hi - lo + 1) / 64 + 1` times.
+/// `max |h - plane|` over the samples `lo..=hi` of row `y` (in the grid), read with
+/// [`Terrain::fold_local_z_row`] (bit for bit `local_z`), with [`Plane::at`]'s very terms: the
+/// row's part `gy (y - y0)` is computed once and `(x + k - x0)` is carried as an exact `f64`
+/// counter; four independent maxima over the quads (a maximum does not depend on the order) let
+/// the loop vectorise, and the heights stay in registers. Loops `(hi - lo + 1) / 4 + 3` times.
 #[inline]
 pub(crate) fn span_deviation<T: Terrain>(t: &T, plane: &Plane, y: i64, lo: i64, hi: i64) -> f64 {
-    let mut buf = [0.0f32; SPAN_CHUNK];
-    let mut e = 0.0f64;
-    let mut x = lo;
-    while x <= hi {
-        let n = ((hi - x + 1) as usize).min(SPAN_CHUNK);
-        let Some(hs) = buf.get_mut(..n) else { break };
-        t.local_z_row(x as u32, y as u32, hs);
-        let r = plane.row_deviation(hs, x, y);
-        e = if r > e { r } else { e };
-        x += n as i64;
+    if hi < lo {
+        return 0.0;
     }
-    e
+    let n = (hi - lo + 1) as usize;
+    let cy = plane.gy * (y - plane.y0) as f64;
+    let x0 = (lo - plane.x0) as f64;
+    let (z0, gx) = (plane.z0, plane.gx);
+    // (per-lane maxima, per-lane columns relative to the plane's corner, the single samples'
+    // maximum, the next single sample's offset from lane 0's column)
+    let start = (
+        [0.0f64; 4],
+        [x0, x0 + 1.0, x0 + 2.0, x0 + 3.0],
+        0.0f64,
+        0.0f64,
+    );
+    let (acc, _, rest, _) = t.fold_local_z_row(
+        lo as u32,
+        y as u32,
+        n,
+        start,
+        |(mut acc, mut xs, rest, k), q| {
+            for ((a, xk), h) in acc.iter_mut().zip(xs.iter_mut()).zip(q) {
+                let d = (h as f64 - ((z0 + gx * *xk) + cy)).abs();
+                *a = if d > *a { d } else { *a };
+                *xk += 4.0;
+            }
+            (acc, xs, rest, k)
+        },
+        |(acc, xs, rest, k), h| {
+            let d = (h as f64 - ((z0 + gx * (xs[0] + k)) + cy)).abs();
+            (acc, xs, if d > rest { d } else { rest }, k + 1.0)
+        },
+    );
+    let mut m = rest;
+    for a in acc {
+        m = if a > m { a } else { m };
+    }
+    m
 }
 
 /// Twice the signed area of `(a, b, c)`: positive when counter-clockwise (y up).
@@ -339,25 +335,33 @@ mod tests {
     }
 
     #[test]
-    fn row_deviation_is_the_per_sample_maximum_bit_for_bit() {
+    fn span_deviation_is_the_per_sample_maximum_bit_for_bit() {
+        use crate::{Heightfield, Scale, Terrain};
         let p = Plane::new([(3, -2, 1234.5), (70, 1, -17.25), (9, 64, 3.0e4)]).unwrap();
-        for (x, y, n) in [
-            (0i64, 0i64, 0usize),
-            (5, 7, 1),
-            (-3, 9, 3),
-            (11, 2, 4),
-            (2, 40, 37),
+        let (w, h) = (48u32, 45u32);
+        let s: std::vec::Vec<f32> = (0..w * h)
+            .map(|k| ((k * 7919) % 113) as f32 * 37.5)
+            .collect();
+        let hf = Heightfield::with_scale(&s, w, h, Scale::default().with_z_scale(0.7)).unwrap();
+        // Empty, shorter than a quad, whole quads, quads and a rest, and spans past the last
+        // column (clamped like local_z).
+        for (y, lo, hi) in [
+            (0i64, 5i64, 4i64),
+            (7, 5, 5),
+            (9, 0, 2),
+            (2, 11, 14),
+            (40, 2, 38),
+            (3, 40, 50),
         ] {
-            let hs: std::vec::Vec<f32> = (0..n).map(|k| ((k * 7919) % 113) as f32 * 37.5).collect();
             let mut want = 0.0f64;
-            for (k, &h) in hs.iter().enumerate() {
-                let d = (h as f64 - p.at(x + k as i64, y)).abs();
+            for x in lo..=hi {
+                let d = (f64::from(hf.local_z(x as u32, y as u32)) - p.at(x, y)).abs();
                 want = if d > want { d } else { want };
             }
             assert_eq!(
-                p.row_deviation(&hs, x, y).to_bits(),
+                span_deviation(&hf, &p, y, lo, hi).to_bits(),
                 want.to_bits(),
-                "{x} {y} {n}"
+                "{y} {lo}..={hi}"
             );
         }
     }
