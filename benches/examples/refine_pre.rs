@@ -5,7 +5,9 @@
 //! built inside the timing), and a checksum of the output (the same checksum means the same
 //! bits; the pruned variants must give the same bits, asserted).
 //!
-//! `cargo run --release -p relief-benches --example refine_pre` (`RUNS=n`)
+//! `cargo run --release -p relief-benches --example refine_pre` (`RUNS=n`; `DEM=path`, optionally
+//! `FORMAT=name` as `relief --format` takes it, times that grid instead, the pyramid variants
+//! included; the first call of each layout is reported too)
 
 use relief_core::refine::{
     hierarchy_len, preprocess, preprocess_compact, preprocess_compact_pyramid, preprocess_pyramid,
@@ -31,13 +33,37 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(20);
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
-    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    // DEM=path (FORMAT=name) times another grid; the bundled Puget Sound DEM otherwise.
+    let dem = match std::env::var("DEM") {
+        Ok(path) => {
+            let format = std::env::var("FORMAT")
+                .ok()
+                .map(|f| relief_io::Format::from_name(&f).expect("a format name"));
+            let opts = relief_io::ReadOptions {
+                format,
+                ..Default::default()
+            };
+            relief_io::read_dem(Path::new(&path), &opts).expect("DEM")
+        }
+        Err(_) => {
+            let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
+            let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
+            dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+            dem
+        }
+    };
     let hf: Heightfield<'_, f32> = dem.heightfield().unwrap();
     let n = hierarchy_len(dem.width, dem.height);
     let (mut e, mut r) = (vec![0.0f32; n], vec![0.0f32; n]);
     let mut c = vec![0u16; n];
+    // The first call of each (cold caches and branch predictors, fresh pages), as a one-shot
+    // tool such as `relief mesh` times it.
+    let t = Instant::now();
+    black_box(preprocess_compact(&hf, &mut c).unwrap());
+    let compact_first = t.elapsed().as_secs_f64() * 1e3;
+    let t = Instant::now();
+    black_box(preprocess(&hf, &mut e, &mut r).unwrap());
+    let full_first = t.elapsed().as_secs_f64() * 1e3;
     let full = fastest(runs, || {
         black_box(preprocess(&hf, &mut e, &mut r).unwrap());
     });
@@ -64,6 +90,6 @@ fn main() {
             .wrapping_add(u64::from(a.to_bits()) ^ (u64::from(b.to_bits()) << 32) ^ u64::from(*k));
     }
     println!(
-        "preprocess full {full:8.3} ms  compact {compact:8.3} ms  with the pyramid: full {full_pyr:8.3} ms  compact {compact_pyr:8.3} ms  checksum {sum:016x}"
+        "preprocess full {full:8.3} ms  compact {compact:8.3} ms  with the pyramid: full {full_pyr:8.3} ms  compact {compact_pyr:8.3} ms  first calls: full {full_first:8.3} ms  compact {compact_first:8.3} ms  checksum {sum:016x}"
     );
 }

@@ -35,7 +35,16 @@ fn view_independent_mesh_writes_obj_and_stays_within_e() {
         let dem = write_dem(dir.path(), w, h);
         let out = dir.path().join("m.obj");
         let (ws, hs) = (w.to_string(), h.to_string());
-        for layout in ["full", "compact", "records", "records-linear"] {
+        for (k, layout) in ["full", "compact", "records", "records-linear"]
+            .into_iter()
+            .enumerate()
+        {
+            // Every other run also repeats the preprocessing (the peers' protocol).
+            let repeats = if (k + usize::from(square)) % 2 == 0 {
+                "0"
+            } else {
+                "2"
+            };
             let o = relief(&[
                 "mesh",
                 "--dem",
@@ -53,8 +62,14 @@ fn view_independent_mesh_writes_obj_and_stays_within_e() {
                 "--out",
                 out.to_str().unwrap(),
                 "--json",
+                "--preprocess-repeats",
+                repeats,
             ]);
             let v = json(&o);
+            match repeats {
+                "0" => assert!(v["preprocess_repeat_ms"].is_null()),
+                _ => assert!(v["preprocess_repeat_ms"].as_f64().unwrap() >= 0.0),
+            }
             let (nv, nt) = obj_counts(&out);
             assert_eq!(v["vertices"].as_u64().unwrap() as usize, nv);
             assert_eq!(v["triangles"].as_u64().unwrap() as usize, nt);
