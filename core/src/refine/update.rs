@@ -178,7 +178,8 @@ fn check_pyramid<T: Terrain>(t: &T, pyramid: &[f32]) -> Result<Layout, Error> {
 
 /// [`super::preprocess_with`] with a min/max block `pyramid` (at least [`pyramid_len`] floats,
 /// filled here) that prunes the error search of large triangles. Same errors and radii, bit for
-/// bit, usually several times faster; keep the pyramid for [`update`].
+/// bit. The pyramid is what [`update`] needs; for a one-off preprocessing the plain
+/// functions are as fast or faster (BENCHMARKS.md, Refinement).
 ///
 /// ```
 /// use relief_core::refine::{hierarchy_len, preprocess, preprocess_pyramid, pyramid_len};
