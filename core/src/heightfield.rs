@@ -207,7 +207,10 @@ pub trait Terrain {
     /// use relief_core::{Heightfield, Terrain};
     /// let s: Vec<u16> = (0..12).collect();
     /// let hf = Heightfield::new(&s, 6, 2).unwrap();
-    /// let (quads, sum) = hf.fold_local_z_row(0, 1, 5, (0, 0.0), |(n, a), q| (n + 1, a + q.iter().sum::<f32>()), |(n, a), z| (n, a + z));
+    /// // Row 1 holds 6..=11: one quad (6, 7, 8, 9), then 10 alone.
+    /// let quad = |(n, a): (u32, f32), q: [f32; 4]| (n + 1, a + q.iter().sum::<f32>());
+    /// let one = |(n, a): (u32, f32), z: f32| (n, a + z);
+    /// let (quads, sum) = hf.fold_local_z_row(0, 1, 5, (0, 0.0), quad, one);
     /// assert_eq!((quads, sum), (1, 6.0 + 7.0 + 8.0 + 9.0 + 10.0));
     /// ```
     fn fold_local_z_row<A>(

@@ -422,13 +422,17 @@ pub fn run(a: &MeshArgs) -> CliResult {
             None => "n/a (grid is not (2^k+1) x (2^k+1))".into(),
         };
         print_out(&format!(
-            "{out}\n  mode        {criterion_kind}\n  size        {w} x {h}\n  vertices    {v}\n  triangles   {t}\n  max error   {max_err:.4} (measured over {cov} samples)\n  preprocess  {preprocess_ms:.1} ms ({layout:?}, {bpv} bytes/vertex)\n  refine      {refine_ms:.1} ms (fresh buffers; {refine_reused_ms:.1} ms into reused buffers)\n  strip       {strip_line}\n",
+            "{out}\n  mode        {criterion_kind}\n  size        {w} x {h}\n  vertices    {v}\n  triangles   {t}\n  max error   {max_err:.4} (measured over {cov} samples)\n  preprocess  {preprocess_ms:.1} ms ({layout:?}, {bpv} bytes/vertex{repeat})\n  refine      {refine_ms:.1} ms (fresh buffers; {refine_reused_ms:.1} ms into reused buffers)\n  strip       {strip_line}\n",
             out = a_out.display(),
             v = counts.vertices,
             t = counts.triangles,
             cov = n - uncovered_n,
             layout = a.layout,
             bpv = hier.bytes_per_vertex(),
+            repeat = preprocess_repeat_ms.map_or(String::new(), |ms| format!(
+                "; fastest of {} more: {ms:.1} ms",
+                a.preprocess_repeats
+            )),
         ))
     }
 }

@@ -588,9 +588,9 @@ fn near_row<const H: i64, const S: usize, const PA: u8, const PB: u8, T, E>(
 }
 
 /// The rest of [`vertex_near`] for one diamond shape `P` ([`NearShape`]), `corners` (its four
-/// distinct corners) and `kids` relative to `(x, y)`. The radius takes one square root for all corners
-/// (`sqrt` is correctly rounded, hence monotone: the square root of the largest squared distance
-/// is the largest distance, bit for bit).
+/// distinct corners) and `kids` relative to `(x, y)`. The radius takes one square root for all
+/// corners (`sqrt` is correctly rounded, hence monotone: the square root of the largest squared
+/// distance is the largest distance, bit for bit).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn near_store<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSink + ?Sized>(
@@ -970,9 +970,6 @@ mod fast_tests {
         assert!(checked > 300, "{checked}");
     }
 
-    /// Every preprocessing entry point stores bit-identical errors and radii with the
-    /// finest-level fast path and with the general (reference) path, on grids of many shapes
-    /// (odd, even, tiny, non-square), four terrains, unit and non-unit scales, both sphere kinds.
     /// The compile-time tables of the finest levels ([`super::NearShape`]) are the grid's own
     /// diamonds ([`super::shape`]) and the rasteriser's samples ([`super::super::raster`]).
     #[test]
@@ -1022,6 +1019,9 @@ mod fast_tests {
         }
     }
 
+    /// Every preprocessing entry point stores bit-identical errors and radii with the
+    /// finest-level fast path and with the general (reference) path, on grids of many shapes
+    /// (odd, even, tiny, non-square), four terrains, unit and non-unit scales, both sphere kinds.
     #[test]
     fn finest_fast_path_is_bit_identical() {
         let sizes = [
