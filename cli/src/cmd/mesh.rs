@@ -124,6 +124,49 @@ pub struct MeshArgs {
     detail: super::mesh_detail::DetailArgs,
 }
 
+/// The preprocessed data of one layout: errors and radii (full and records layouts) or
+/// compact errors, for `n` hierarchy entries; the records are allocated by
+/// [`Buffers::preprocess`].
+struct Buffers {
+    errors_f: Vec<f32>,
+    radii: Vec<f32>,
+    errors_c: Vec<u16>,
+    records: Vec<VertexRecord>,
+}
+
+impl Buffers {
+    fn new(n: usize, layout: Layout) -> Buffers {
+        let full = layout != Layout::Compact;
+        Buffers {
+            errors_f: vec![0.0f32; if full { n } else { 0 }],
+            radii: vec![0.0f32; if full { n } else { 0 }],
+            errors_c: vec![0u16; if full { 0 } else { n }],
+            records: Vec::new(),
+        }
+    }
+
+    /// Preprocesses `hf` into these buffers in `layout` (full preprocessing, then packing, for
+    /// the records layouts).
+    fn preprocess<'b>(
+        &'b mut self,
+        hf: &Heightfield<'_, f32>,
+        layout: Layout,
+    ) -> Result<Hierarchy<'b>, CliError> {
+        if layout == Layout::Compact {
+            return Ok(preprocess_compact(hf, &mut self.errors_c)?);
+        }
+        let f = preprocess(hf, &mut self.errors_f, &mut self.radii)?;
+        Ok(match record_layout(layout) {
+            Some(rl) => {
+                let (w, h) = (hf.width(), hf.height());
+                self.records = vec![VertexRecord::default(); records_len(w, h, rl)];
+                pack_records(&f, hf, rl, &mut self.records)?
+            }
+            None => f,
+        })
+    }
+}
+
 /// The record layout of a records `layout`, `None` for the others.
 fn record_layout(layout: Layout) -> Option<RecordLayout> {
     match layout {
@@ -252,12 +295,8 @@ pub fn run(a: &MeshArgs) -> CliResult {
     };
     let (w, h) = (hf.width(), hf.height());
     let n = hierarchy_len(w, h);
-    let full = a.layout != Layout::Compact;
-    let mut errors_f = vec![0.0f32; if full { n } else { 0 }];
-    let mut radii = vec![0.0f32; if full { n } else { 0 }];
-    let mut errors_c = vec![0u16; if full { 0 } else { n }];
+    let mut bufs = Buffers::new(n, a.layout);
     let t0 = Instant::now();
-    let mut records: Vec<VertexRecord>;
     let mapped_records;
     let mut records_file = None;
     let existing = a.records_file.as_ref().filter(|p| p.exists());
@@ -268,39 +307,21 @@ pub fn run(a: &MeshArgs) -> CliResult {
         mapped_records.advise_random();
         records_file = Some("mapped");
         hm
-    } else if full {
-        let f = preprocess(&hf, &mut errors_f, &mut radii)?;
-        match record_layout(a.layout) {
-            Some(rl) => {
-                records = vec![VertexRecord::default(); records_len(w, h, rl)];
-                let packed = pack_records(&f, &hf, rl, &mut records)?;
-                if let Some(p) = &a.records_file {
-                    relief_io::write_records(p, &packed)?;
-                    records_file = Some("written");
-                }
-                packed
-            }
-            None => f,
-        }
     } else {
-        preprocess_compact(&hf, &mut errors_c)?
+        let hier = bufs.preprocess(&hf, a.layout)?;
+        if let (Some(p), Some(_)) = (&a.records_file, record_layout(a.layout)) {
+            relief_io::write_records(p, &hier)?;
+            records_file = Some("written");
+        }
+        hier
     };
     let preprocess_ms = t0.elapsed().as_secs_f64() * 1e3;
     let mut preprocess_repeat_ms = None::<f64>;
     for _ in 0..a.preprocess_repeats {
         let t = Instant::now();
-        if full {
-            let (mut e, mut r) = (vec![0.0f32; n], vec![0.0f32; n]);
-            let f = preprocess(&hf, &mut e, &mut r)?;
-            if let Some(rl) = record_layout(a.layout) {
-                let mut rec = vec![VertexRecord::default(); records_len(w, h, rl)];
-                std::hint::black_box(pack_records(&f, &hf, rl, &mut rec)?);
-            }
-            std::hint::black_box(f);
-        } else {
-            let mut e = vec![0u16; n];
-            std::hint::black_box(preprocess_compact(&hf, &mut e)?);
-        }
+        let mut fresh = Buffers::new(n, a.layout);
+        std::hint::black_box(fresh.preprocess(&hf, a.layout)?);
+        drop(fresh); // freed inside the timing, as the first call's buffers are not
         let ms = t.elapsed().as_secs_f64() * 1e3;
         preprocess_repeat_ms = Some(preprocess_repeat_ms.map_or(ms, |b| b.min(ms)));
     }

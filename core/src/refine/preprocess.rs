@@ -187,6 +187,15 @@ fn triangle_error_pruned(
     max_deviation(t, pr.layout, pr.buf, &spans, &plane, floor)
 }
 
+/// Whether the square of the centre vertex `(x, y)` of half-size `h` is cut along its main
+/// diagonal: `main_diagonal(x - h, y - h, 2h)` with shifts (`x - h` and `y - h` are multiples
+/// of `2h`).
+#[inline(always)]
+fn on_main_diagonal(x: i64, y: i64, h: i64) -> bool {
+    let k = (2 * h).trailing_zeros();
+    (((x - h) >> k) + ((y - h) >> k)) & 1 == 0
+}
+
 /// The diamond triangles and children of the vertex `(x, y)` of half-size `h` in pass `pass`
 /// (0: horizontal edges, 1: vertical edges, 2: centres), the same sets as
 /// [`RefineGrid::diamond`] and [`RefineGrid::children`] (tested), by shifts instead of the
@@ -242,10 +251,7 @@ pub(crate) fn shape(
                 (x - h, y + h),
                 (x + h, y + h),
             );
-            // main_diagonal(x - h, y - h, 2h) with shifts (x - h and y - h are multiples of 2h).
-            let k = (2 * h).trailing_zeros();
-            let main = (((x - h) >> k) + ((y - h) >> k)) & 1 == 0;
-            let d = if main {
+            let d = if on_main_diagonal(x, y, h) {
                 [Some([c00, c10, c11]), Some([c00, c11, c01])]
             } else {
                 [Some([c00, c10, c01]), Some([c10, c11, c01])]
@@ -430,6 +436,32 @@ impl<const H: i64, const P: u8> NearShape<H, P> {
         inside_offsets(H, Self::DIAMOND[0]),
         inside_offsets(H, Self::DIAMOND[1]),
     ];
+    /// The diamond's four distinct corners.
+    const CORNERS: [(i64, i64); 4] = match P {
+        0 => [(-H, 0), (H, 0), (0, H), (0, -H)],
+        1 => [(0, -H), (0, H), (-H, 0), (H, 0)],
+        _ => [(-H, -H), (H, -H), (-H, H), (H, H)],
+    };
+    /// The children (the diagonal ones of an edge vertex, none for `H = 1`; the edge midpoints
+    /// of a centre's square) and how many.
+    const KIDS: ([(i64, i64); 4], usize) = match P {
+        0 | 1 => (
+            [
+                (-H / 2, -H / 2),
+                (H / 2, -H / 2),
+                (-H / 2, H / 2),
+                (H / 2, H / 2),
+            ],
+            if H >= 2 { 4 } else { 0 },
+        ),
+        _ => ([(-H, 0), (H, 0), (0, -H), (0, H)], 4),
+    };
+
+    /// [`NearShape::KIDS`] as a slice.
+    #[inline(always)]
+    fn kids() -> &'static [(i64, i64)] {
+        Self::KIDS.0.get(..Self::KIDS.1).unwrap_or(&[])
+    }
 }
 
 /// [`vertex_general`] for a vertex of half-size `H` (1 or 2; `S = (2H + 1)^2`) at `(x, y)`
@@ -462,62 +494,7 @@ fn vertex_near<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSi
             *v = z as f64;
         }
     }
-    // The diamond (two triangles), its four distinct corners and the children, relative to
-    // the vertex, as in [`shape`] (tested equal to the grid's reference sets): constants in each
-    // arm once inlined. Only maxima are taken over them, so their order does not matter.
-    let (h, q) = (H, H / 2);
-    let diag_kids = [(-q, -q), (q, -q), (-q, q), (q, q)];
-    let kids_of_edge: &[(i64, i64)] = if H >= 2 { &diag_kids } else { &[] };
-    let centre_kids = [(-h, 0), (h, 0), (0, -h), (0, h)];
-    let edge_h = [(-h, 0), (h, 0), (0, h), (0, -h)];
-    let edge_v = [(0, -h), (0, h), (-h, 0), (h, 0)];
-    let square = [(-h, -h), (h, -h), (-h, h), (h, h)];
-    match P {
-        0 => near_store::<H, S, P, T, E>(
-            t,
-            g,
-            (x, y),
-            &nb,
-            edge_h,
-            kids_of_edge,
-            errors,
-            radii,
-            contain_corners,
-        ),
-        1 => near_store::<H, S, P, T, E>(
-            t,
-            g,
-            (x, y),
-            &nb,
-            edge_v,
-            kids_of_edge,
-            errors,
-            radii,
-            contain_corners,
-        ),
-        2 => near_store::<H, S, P, T, E>(
-            t,
-            g,
-            (x, y),
-            &nb,
-            square,
-            &centre_kids,
-            errors,
-            radii,
-            contain_corners,
-        ),
-        _ => near_store::<H, S, P, T, E>(
-            t,
-            g,
-            (x, y),
-            &nb,
-            square,
-            &centre_kids,
-            errors,
-            radii,
-            contain_corners,
-        ),
-    }
+    near_store::<H, S, P, T, E>(t, g, (x, y), &nb, errors, radii, contain_corners);
 }
 
 /// One vertex of a finest-level row (see [`near_row`]): [`vertex_near`] with shape `P` when its
@@ -587,8 +564,8 @@ fn near_row<const H: i64, const S: usize, const PA: u8, const PB: u8, T, E>(
     }
 }
 
-/// The rest of [`vertex_near`] for one diamond shape `P` ([`NearShape`]), `corners` (its four
-/// distinct corners) and `kids` relative to `(x, y)`. The radius takes one square root for all
+/// The rest of [`vertex_near`] for one diamond shape `P` ([`NearShape`]: its triangles, four
+/// distinct corners and children, relative to `(x, y)`). The radius takes one square root for all
 /// corners (`sqrt` is correctly rounded, hence monotone: the square root of the largest squared
 /// distance is the largest distance, bit for bit).
 #[inline(always)]
@@ -598,12 +575,11 @@ fn near_store<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSin
     g: &RefineGrid,
     (x, y): (i64, i64),
     nb: &[f64; S],
-    corners: [(i64, i64); 4],
-    kids: &[(i64, i64)],
     errors: &mut E,
     radii: Option<&mut [f32]>,
     contain_corners: bool,
 ) {
+    let (corners, kids) = (NearShape::<H, P>::CORNERS, NearShape::<H, P>::kids());
     let w = g.width() as usize;
     let idx = |q: (i64, i64)| (y + q.1) as usize * w + (x + q.0) as usize;
     let mut c = 0.0f32;
@@ -745,12 +721,9 @@ pub(crate) fn pass_range<T: Terrain, E: ErrorSink + ?Sized>(
     while y <= ye {
         let xs = (first(x0, x_lo), xe);
         let (r, e, cc, pr) = (radii.as_deref_mut(), &mut *errors, contain_corners, pruning);
-        // Centres: whether the square of the row's first vertex is cut along its main diagonal
-        // (as in [`shape`]); the next one's is not.
-        let main = || {
-            let k = step.trailing_zeros();
-            ((((xs.0 - h) >> k) + ((y - h) >> k)) & 1) == 0
-        };
+        // Centres: whether the square of the row's first vertex is cut along its main diagonal;
+        // the next one's is not.
+        let main = || on_main_diagonal(xs.0, y, h);
         match (h, pass) {
             (1, 0) => near_row::<1, 9, 0, 0, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
             (1, 1) => near_row::<1, 9, 1, 1, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
