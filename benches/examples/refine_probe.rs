@@ -27,20 +27,28 @@ fn main() {
     let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
     let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
     dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
-    let hf: Heightfield<'_, f32> = dem.heightfield().unwrap();
     let (w, h) = (dem.width, dem.height);
+    // HUGE=1: every per-vertex array (heights, hierarchy, records, scratch, outputs) in
+    // anonymous memory with transparent huge pages requested.
+    let huge = std::env::var("HUGE").is_ok_and(|v| v == "1");
+    let mut heights = Buf::new(dem.samples.len(), huge);
+    heights.as_mut_slice().copy_from_slice(&dem.samples);
+    let hf = Heightfield::with_scale(heights.as_slice(), w, h, dem.scale).unwrap();
     let n = hierarchy_len(w, h);
-    let (mut ef, mut rf) = (vec![0.0f32; n], vec![0.0f32; n]);
-    let full = preprocess(&hf, &mut ef, &mut rf).unwrap();
-    let mut ec = vec![0u16; n];
-    let compact = preprocess_compact(&hf, &mut ec).unwrap();
-    let mut rl = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Linear)];
-    let lin = pack_records(&full, &hf, RecordLayout::Linear, &mut rl).unwrap();
-    let mut ri = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Interleaved)];
-    let il = pack_records(&full, &hf, RecordLayout::Interleaved, &mut ri).unwrap();
-    let mut scratch = vec![0u64; scratch_len(w, h)];
-    let mut verts = vec![[0.0f32; 3]; n];
-    let mut tris = vec![[0u32; 3]; triangle_bound(w, h)];
+    let (mut ef, mut rf) = (Buf::<f32>::new(n, huge), Buf::<f32>::new(n, huge));
+    let full = preprocess(&hf, ef.as_mut_slice(), rf.as_mut_slice()).unwrap();
+    let mut ec = Buf::<u16>::new(n, huge);
+    let compact = preprocess_compact(&hf, ec.as_mut_slice()).unwrap();
+    let mut rl = Buf::<VertexRecord>::new(records_len(w, h, RecordLayout::Linear), huge);
+    let lin = pack_records(&full, &hf, RecordLayout::Linear, rl.as_mut_slice()).unwrap();
+    let mut ri = Buf::<VertexRecord>::new(records_len(w, h, RecordLayout::Interleaved), huge);
+    let il = pack_records(&full, &hf, RecordLayout::Interleaved, ri.as_mut_slice()).unwrap();
+    let mut scratch = Buf::<u64>::new(scratch_len(w, h), huge);
+    let scratch = scratch.as_mut_slice();
+    let mut verts = Buf::<[f32; 3]>::new(n, huge);
+    let verts = verts.as_mut_slice();
+    let mut tris = Buf::<[u32; 3]>::new(triangle_bound(w, h), huge);
+    let tris = tris.as_mut_slice();
     let cam = camera(BENCH_EYE_X);
     let mut cases: Vec<(String, Criterion)> = Vec::new();
     for e in [5.0f32, 50.0] {
@@ -61,8 +69,8 @@ fn main() {
             ("rec-lin", &lin, false),
             ("rec-il", &il, false),
         ] {
-            // The `-pc` rows: `triangles_popcnt` (view-independent only, where the CPU has it).
-            if pop && !(name.starts_with("vi") && popcnt()) {
+            // The `-pc` rows: `triangles_popcnt` (where the CPU has it).
+            if pop && !popcnt() {
                 continue;
             }
             if !format!("{name} {lname}").contains(&filter) {
@@ -74,9 +82,9 @@ fn main() {
             for _ in 0..runs {
                 let s = Instant::now();
                 c = black_box(if pop {
-                    triangles_popcnt(&r, &mut scratch, &mut verts, &mut tris)
+                    triangles_popcnt(&r, scratch, verts, tris)
                 } else {
-                    r.triangles(&mut scratch, &mut verts, &mut tris).unwrap()
+                    r.triangles(scratch, verts, tris).unwrap()
                 });
                 best = best.min(s.elapsed().as_secs_f64() * 1e3);
             }
@@ -86,6 +94,36 @@ fn main() {
                 c.triangles,
                 c.triangles as f64 / best / 1e3
             );
+        }
+    }
+}
+
+/// A zeroed buffer: a `Vec`, or `MADV_HUGEPAGE` memory when `huge`.
+enum Buf<T: bytemuck::Pod> {
+    Huge(relief_io::HugeBuffer<T>),
+    Small(Vec<T>),
+}
+
+impl<T: bytemuck::Pod> Buf<T> {
+    fn new(len: usize, huge: bool) -> Buf<T> {
+        if huge {
+            Buf::Huge(relief_io::HugeBuffer::zeroed(len).unwrap())
+        } else {
+            Buf::Small(vec![T::zeroed(); len])
+        }
+    }
+
+    fn as_slice(&self) -> &[T] {
+        match self {
+            Buf::Huge(b) => b.as_slice(),
+            Buf::Small(v) => v,
+        }
+    }
+
+    fn as_mut_slice(&mut self) -> &mut [T] {
+        match self {
+            Buf::Huge(b) => b.as_mut_slice(),
+            Buf::Small(v) => v,
         }
     }
 }

@@ -523,7 +523,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// results, buffer for buffer. The view-independent extraction of a square grid numbers
     /// each kept vertex by its rank in a bitmap, one population count per vertex; the default
     /// x86-64 target has no `popcnt` instruction, so [`Self::triangles`] counts bits in
-    /// software. Other criteria and grids take [`Self::triangles`] unchanged.
+    /// software; the view-dependent list renumbers its triangles' corners by the same ranks
+    /// (three per triangle), and is compiled here with the instruction as well. Other grids of
+    /// the view-independent criterion take [`Self::triangles`] unchanged.
     ///
     /// # Safety
     ///
@@ -559,7 +561,11 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         vertices: &mut [[f32; 3]],
         triangles: &mut [[u32; 3]],
     ) -> Result<FrameCounts, Error> {
-        if self.view.is_none() && self.square_vi() {
+        if self.view.is_some() {
+            // Inlined here, so the renumbering's rank counts use the instruction.
+            return self.triangles_view(scratch, vertices, triangles);
+        }
+        if self.square_vi() {
             let (sel, mut vs, depth) = self.vi_square_start(scratch, vertices, triangles)?;
             for (l, r, a) in vs.roots() {
                 vs.walk_popcnt(l, r, a, depth);
@@ -623,7 +629,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     }
 
     /// View-dependent list in one traversal: triangles are written with grid indices while the
-    /// bitmap is marked, then renumbered by rank.
+    /// bitmap is marked, then renumbered by rank. Inlined into both callers (the `popcnt` build
+    /// of [`Self::triangles_popcnt`] then counts each rank with the instruction).
+    #[inline(always)]
     fn triangles_view(
         &self,
         scratch: &mut [u64],
