@@ -15,7 +15,7 @@ use std::path::Path;
 use std::time::Instant;
 
 mod common;
-use common::{camera, BENCH_EYE_X};
+use common::{camera, Buffer, BENCH_EYE_X};
 
 fn main() {
     let runs: usize = std::env::var("RUNS")
@@ -31,23 +31,23 @@ fn main() {
     // HUGE=1: every per-vertex array (heights, hierarchy, records, scratch, outputs) in
     // anonymous memory with transparent huge pages requested.
     let huge = std::env::var("HUGE").is_ok_and(|v| v == "1");
-    let mut heights = Buf::new(dem.samples.len(), huge);
+    let mut heights = Buffer::new(dem.samples.len(), huge);
     heights.as_mut_slice().copy_from_slice(&dem.samples);
     let hf = Heightfield::with_scale(heights.as_slice(), w, h, dem.scale).unwrap();
     let n = hierarchy_len(w, h);
-    let (mut ef, mut rf) = (Buf::<f32>::new(n, huge), Buf::<f32>::new(n, huge));
+    let (mut ef, mut rf) = (Buffer::<f32>::new(n, huge), Buffer::<f32>::new(n, huge));
     let full = preprocess(&hf, ef.as_mut_slice(), rf.as_mut_slice()).unwrap();
-    let mut ec = Buf::<u16>::new(n, huge);
+    let mut ec = Buffer::<u16>::new(n, huge);
     let compact = preprocess_compact(&hf, ec.as_mut_slice()).unwrap();
-    let mut rl = Buf::<VertexRecord>::new(records_len(w, h, RecordLayout::Linear), huge);
+    let mut rl = Buffer::<VertexRecord>::new(records_len(w, h, RecordLayout::Linear), huge);
     let lin = pack_records(&full, &hf, RecordLayout::Linear, rl.as_mut_slice()).unwrap();
-    let mut ri = Buf::<VertexRecord>::new(records_len(w, h, RecordLayout::Interleaved), huge);
+    let mut ri = Buffer::<VertexRecord>::new(records_len(w, h, RecordLayout::Interleaved), huge);
     let il = pack_records(&full, &hf, RecordLayout::Interleaved, ri.as_mut_slice()).unwrap();
-    let mut scratch = Buf::<u64>::new(scratch_len(w, h), huge);
+    let mut scratch = Buffer::<u64>::new(scratch_len(w, h), huge);
     let scratch = scratch.as_mut_slice();
-    let mut verts = Buf::<[f32; 3]>::new(n, huge);
+    let mut verts = Buffer::<[f32; 3]>::new(n, huge);
     let verts = verts.as_mut_slice();
-    let mut tris = Buf::<[u32; 3]>::new(triangle_bound(w, h), huge);
+    let mut tris = Buffer::<[u32; 3]>::new(triangle_bound(w, h), huge);
     let tris = tris.as_mut_slice();
     let cam = camera(BENCH_EYE_X);
     let mut cases: Vec<(String, Criterion)> = Vec::new();
@@ -94,36 +94,6 @@ fn main() {
                 c.triangles,
                 c.triangles as f64 / best / 1e3
             );
-        }
-    }
-}
-
-/// A zeroed buffer: a `Vec`, or `MADV_HUGEPAGE` memory when `huge`.
-enum Buf<T: bytemuck::Pod> {
-    Huge(relief_io::HugeBuffer<T>),
-    Small(Vec<T>),
-}
-
-impl<T: bytemuck::Pod> Buf<T> {
-    fn new(len: usize, huge: bool) -> Buf<T> {
-        if huge {
-            Buf::Huge(relief_io::HugeBuffer::zeroed(len).unwrap())
-        } else {
-            Buf::Small(vec![T::zeroed(); len])
-        }
-    }
-
-    fn as_slice(&self) -> &[T] {
-        match self {
-            Buf::Huge(b) => b.as_slice(),
-            Buf::Small(v) => v,
-        }
-    }
-
-    fn as_mut_slice(&mut self) -> &mut [T] {
-        match self {
-            Buf::Huge(b) => b.as_mut_slice(),
-            Buf::Small(v) => v,
         }
     }
 }

@@ -82,32 +82,43 @@ pub fn time<T: Terrain>(
     (cnt.triangles, warm, cold[runs / 2])
 }
 
-/// The refinement scratch: a plain `Vec`, or anonymous memory with transparent huge pages
-/// requested (`relief_io::HugeBuffer`). The bitmap and rank prefix are indexed
-/// row-major, so on a 16385^2 grid (2 x 32 MiB) the few thousand vertices of a frame fall on
-/// as many different 4 KiB pages; with 2 MiB pages the whole scratch is 33 TLB entries.
-pub enum Scratch {
+/// A zeroed buffer of `Pod` values: a plain `Vec`, or anonymous memory with transparent huge
+/// pages requested (`relief_io::HugeBuffer`).
+pub enum Buffer<T: bytemuck::Pod> {
     /// `MADV_HUGEPAGE` memory.
-    Huge(relief_io::HugeBuffer<u64>),
+    Huge(relief_io::HugeBuffer<T>),
     /// A plain `Vec` (4 KiB pages under THP mode `madvise`).
-    Small(Vec<u64>),
+    Small(Vec<T>),
 }
 
-impl Scratch {
-    /// `len` zeroed words, in huge pages if `huge`.
-    pub fn new(len: usize, huge: bool) -> Scratch {
+/// The refinement scratch. The bitmap and rank prefix are indexed row-major, so on a 16385^2
+/// grid (2 x 32 MiB) the few thousand vertices of a frame fall on as many different 4 KiB
+/// pages; with 2 MiB pages the whole scratch is 33 TLB entries.
+pub type Scratch = Buffer<u64>;
+
+impl<T: bytemuck::Pod> Buffer<T> {
+    /// `len` zeroed values, in huge pages if `huge`.
+    pub fn new(len: usize, huge: bool) -> Buffer<T> {
         if huge {
-            Scratch::Huge(relief_io::HugeBuffer::zeroed(len).unwrap())
+            Buffer::Huge(relief_io::HugeBuffer::zeroed(len).unwrap())
         } else {
-            Scratch::Small(vec![0; len])
+            Buffer::Small(vec![T::zeroed(); len])
         }
     }
 
-    /// The words.
-    pub fn as_mut_slice(&mut self) -> &mut [u64] {
+    /// The values.
+    pub fn as_slice(&self) -> &[T] {
         match self {
-            Scratch::Huge(b) => b.as_mut_slice(),
-            Scratch::Small(v) => v,
+            Buffer::Huge(b) => b.as_slice(),
+            Buffer::Small(v) => v,
+        }
+    }
+
+    /// The values, mutable.
+    pub fn as_mut_slice(&mut self) -> &mut [T] {
+        match self {
+            Buffer::Huge(b) => b.as_mut_slice(),
+            Buffer::Small(v) => v,
         }
     }
 }
