@@ -1,0 +1,212 @@
+//! Yardstick, not library code: how fast a view-dependent refinement written for one case only
+//! runs on this machine. The case is a square `2^k + 1` grid, `f32` arithmetic, the full
+//! layout's per-vertex error and radius arrays and recursion on grid coordinates. It keeps
+//! SOAR's projected-error test from the sphere, frustum culling with an active-plane mask (lazy
+//! below the last 4 levels) and an indexed output: each vertex numbered at its first use through
+//! a per-frame stamp array. The same camera and thresholds as `refine_probe`'s `vd` rows; it
+//! prints its triangle count beside `Refiner::triangles`'s, for the same work.
+//!
+//! `cargo run --release -p relief-benches --example vd_lean` (`RUNS=n`; `COUNT=0` leaves out the
+//! count-only frames)
+
+use relief_core::refine::{hierarchy_len, preprocess, triangle_bound, Criterion, Refiner, View};
+use relief_core::{Heightfield, Terrain};
+use std::hint::black_box;
+use std::path::Path;
+use std::time::Instant;
+
+mod common;
+use common::{camera, BENCH_EYE_X};
+
+struct Lean<'a> {
+    err: &'a [f32],
+    rad: &'a [f32],
+    z: &'a [f32],
+    w: u32,
+    levels: u32,
+    lazy_from: u32,
+    sx: f32,
+    sy: f32,
+    eye: [f32; 3],
+    k: f32,
+    planes: [[f32; 4]; 6],
+}
+
+struct Out<'o> {
+    /// Count the triangles only (no vertex numbering, no output): the decisions' own cost.
+    count_only: bool,
+    stamp: &'o mut [u32],
+    index: &'o mut [u32],
+    frame: u32,
+    verts: &'o mut [[f32; 3]],
+    nv: usize,
+    tris: &'o mut [[u32; 3]],
+    nt: usize,
+}
+
+type P = (u32, u32);
+
+impl Lean<'_> {
+    #[inline(always)]
+    fn vertex(&self, o: &mut Out<'_>, p: P) -> u32 {
+        let i = (p.1 * self.w + p.0) as usize;
+        if o.stamp[i] != o.frame {
+            o.stamp[i] = o.frame;
+            o.index[i] = o.nv as u32;
+            o.verts[o.nv] = [p.0 as f32 * self.sx, p.1 as f32 * self.sy, self.z[i]];
+            o.nv += 1;
+        }
+        o.index[i]
+    }
+
+    #[inline(always)]
+    fn emit(&self, o: &mut Out<'_>, l: P, r: P, a: P) {
+        if o.count_only {
+            o.nt += 1;
+            return;
+        }
+        let t = [self.vertex(o, l), self.vertex(o, r), self.vertex(o, a)];
+        o.tris[o.nt] = t;
+        o.nt += 1;
+    }
+
+    fn walk(&self, o: &mut Out<'_>, l: P, r: P, a: P, planes: u8, level: u32) {
+        if level >= self.levels {
+            self.emit(o, l, r, a);
+            return;
+        }
+        let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
+        let i = (m.1 * self.w + m.0) as usize;
+        let e = self.err[i];
+        let rr = self.rad[i];
+        let (px, py, pz) = (m.0 as f32 * self.sx, m.1 as f32 * self.sy, self.z[i]);
+        let mut planes = planes;
+        if planes != 0 && level < self.lazy_from {
+            let mut rest = planes;
+            while rest != 0 {
+                let k = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let p = self.planes[k];
+                let c = p[0] * px + p[1] * py + p[2] * pz + p[3];
+                if c + rr < 0.0 {
+                    return;
+                }
+                if c - rr > 0.0 {
+                    planes &= !(1 << k);
+                }
+            }
+        }
+        let (dx, dy, dz) = (self.eye[0] - px, self.eye[1] - py, self.eye[2] - pz);
+        let reach = e * self.k + rr;
+        if e > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz {
+            self.walk(o, a, l, m, planes, level + 1);
+            self.walk(o, r, a, m, planes, level + 1);
+        } else {
+            self.emit(o, l, r, a);
+        }
+    }
+}
+
+fn main() {
+    let runs: usize = std::env::var("RUNS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(30);
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
+    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
+    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    let (w, h) = (dem.width, dem.height);
+    assert!(w == h && (w - 1).is_power_of_two(), "a square 2^k + 1 grid");
+    let hf = Heightfield::with_scale(&dem.samples, w, h, dem.scale).unwrap();
+    let n = hierarchy_len(w, h);
+    let (mut ef, mut rf) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let full = preprocess(&hf, &mut ef, &mut rf).unwrap();
+    // A second copy for the lean walk, which reads the arrays directly.
+    let (mut e2, mut r2) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let _ = preprocess(&hf, &mut e2, &mut r2).unwrap();
+    let z: Vec<f32> = (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| hf.local_z(x, y))
+        .collect();
+    let side = w - 1;
+    let levels = 2 * side.trailing_zeros();
+    let cam = camera(BENCH_EYE_X);
+    let planes4 = cam.frustum_planes(0.1, 0.1 * 1e6).unwrap();
+    let mut planes = [[0.0f32; 4]; 6];
+    for (o, p) in planes.iter_mut().zip(planes4.iter()) {
+        *o = [p.x, p.y, p.z, p.w + p.z * dem.scale.z_offset];
+    }
+    let mut stamp = vec![0u32; (w * h) as usize];
+    let mut index = vec![0u32; (w * h) as usize];
+    let mut verts = vec![[0.0f32; 3]; n];
+    let mut tris = vec![[0u32; 3]; triangle_bound(w, h)];
+    let mut scratch = vec![0u64; relief_core::refine::scratch_len(w, h)];
+    let mut frame = 0u32;
+    // COUNT=0 leaves out the count-only frames (for instruction counts under callgrind).
+    let with_count = std::env::var("COUNT").map_or(true, |v| v != "0");
+    for tau in [0.5f32, 1.0, 4.0] {
+        let lean = Lean {
+            err: &e2,
+            rad: &r2,
+            z: &z,
+            w,
+            levels,
+            lazy_from: levels - 4,
+            sx: dem.scale.dx,
+            sy: dem.scale.dy,
+            eye: [cam.eye.x, cam.eye.y, cam.eye.z - dem.scale.z_offset],
+            k: cam.kappa() / tau,
+            planes,
+        };
+        let r = Refiner::new(&full, &hf, Criterion::View(View::new(&cam, tau).unwrap())).unwrap();
+        // The three are interleaved frame by frame, so that a change of the machine's speed
+        // hits them alike; each keeps its fastest frame.
+        let (mut best, mut best_c, mut best_r) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        let (mut nv, mut nt, mut nt_c) = (0, 0, 0);
+        let mut c = Default::default();
+        for _ in 0..runs {
+            for count_only in [false, true] {
+                if count_only && !with_count {
+                    nt_c = nt;
+                    best_c = f64::NAN;
+                    continue;
+                }
+                frame += 1;
+                let s = Instant::now();
+                let mut o = Out {
+                    count_only,
+                    stamp: &mut stamp,
+                    index: &mut index,
+                    frame,
+                    verts: &mut verts,
+                    nv: 0,
+                    tris: &mut tris,
+                    nt: 0,
+                };
+                lean.walk(&mut o, (side, side), (0, 0), (side, 0), 0b01_1111, 0);
+                lean.walk(&mut o, (0, 0), (side, side), (0, side), 0b01_1111, 0);
+                black_box(&o.tris[..o.nt.min(o.tris.len())]);
+                let ms = s.elapsed().as_secs_f64() * 1e3;
+                if count_only {
+                    nt_c = o.nt;
+                    best_c = best_c.min(ms);
+                } else {
+                    (nv, nt) = (o.nv, o.nt);
+                    best = best.min(ms);
+                }
+            }
+            let s = Instant::now();
+            c = black_box(r.triangles(&mut scratch, &mut verts, &mut tris).unwrap());
+            best_r = best_r.min(s.elapsed().as_secs_f64() * 1e3);
+        }
+        assert_eq!(nt, nt_c);
+        let c: relief_core::refine::FrameCounts = c;
+        println!(
+            "tau={tau:<4} lean {nt:>7} tris {nv:>7} verts {best:8.3} ms {:6.1} M tris/s (count only {best_c:7.3} ms) | Refiner::triangles {:>7} tris {:>7} verts {best_r:8.3} ms {:6.1} M tris/s",
+            nt as f64 / best / 1e3,
+            c.triangles,
+            c.vertices,
+            c.triangles as f64 / best_r / 1e3
+        );
+    }
+}
