@@ -1086,7 +1086,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             sink.tri(l, r, a);
             return;
         }
-        let m = ((l.0 + r.0) / 2, (l.1 + r.1) / 2);
+        // The hypotenuse's ends have even coordinate sums: a shift halves them exactly (and
+        // without the rounding fix-up a signed division needs).
+        let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
         let i = (m.1 * self.g.width() as i64 + m.0) as usize;
         let kept = bits.get(i >> 6).is_some_and(|b| (b >> (i & 63)) & 1 == 1);
         if SQUARE && level + 1 == self.g.levels() {
@@ -1133,7 +1135,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             sink.tri(l, r, a);
             return;
         }
-        let m = ((l.0 .0 + r.0 .0) / 2, (l.0 .1 + r.0 .1) / 2);
+        // Even sums (the hypotenuse's ends): the shift is exact, see `walk_vi`.
+        let m = ((l.0 .0 + r.0 .0) >> 1, (l.0 .1 + r.0 .1) >> 1);
         let m = (m, self.order.bit(m));
         let d = if class == Class::Straddle || sink.seen(m) {
             // (After `seen`, the incoming planes are a superset of those the first decision
