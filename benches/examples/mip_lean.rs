@@ -14,10 +14,11 @@
 
 use relief_core::glam::{DVec3, Vec3};
 use relief_core::ray::{MaxMip, Ray, RayTracer};
-use relief_core::{Camera, Heightfield, Surface, Terrain};
+use relief_core::{Camera, Heightfield, Surface};
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Instant;
+
+mod common;
 
 struct Pyramid {
     /// Level `k`: `w_k x h_k` maxima, row-major.
@@ -198,15 +199,10 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(9);
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
-    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    let dem = common::puget();
     let (w, h) = (dem.width, dem.height);
     let hf = Heightfield::with_scale(&dem.samples, w, h, dem.scale).unwrap();
-    let z: Vec<f32> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| hf.local_z(x, y))
-        .collect();
+    let z = common::local_heights(&hf);
     let (zlo, zhi) = z
         .iter()
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {

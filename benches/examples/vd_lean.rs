@@ -10,9 +10,8 @@
 //! count-only frames)
 
 use relief_core::refine::{hierarchy_len, preprocess, triangle_bound, Criterion, Refiner, View};
-use relief_core::{Heightfield, Terrain};
+use relief_core::Heightfield;
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Instant;
 
 mod common;
@@ -112,9 +111,7 @@ fn main() {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(30);
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
-    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    let dem = common::puget();
     let (w, h) = (dem.width, dem.height);
     assert!(w == h && (w - 1).is_power_of_two(), "a square 2^k + 1 grid");
     let hf = Heightfield::with_scale(&dem.samples, w, h, dem.scale).unwrap();
@@ -124,10 +121,7 @@ fn main() {
     // A second copy for the lean walk, which reads the arrays directly.
     let (mut e2, mut r2) = (vec![0.0f32; n], vec![0.0f32; n]);
     let _ = preprocess(&hf, &mut e2, &mut r2).unwrap();
-    let z: Vec<f32> = (0..h)
-        .flat_map(|y| (0..w).map(move |x| (x, y)))
-        .map(|(x, y)| hf.local_z(x, y))
-        .collect();
+    let z = common::local_heights(&hf);
     let side = w - 1;
     let levels = 2 * side.trailing_zeros();
     let cam = camera(BENCH_EYE_X);

@@ -1,5 +1,5 @@
 //! Shared by the refinement examples (`refine_scale`, `refine_mapped`, `refine_pages`,
-//! `refine_probe`): the benchmark camera, the upsampled test grids and the warm / cold frame
+//! `refine_probe`, and the yardsticks `vd_lean`, `mip_lean`): the bundled DEM, the benchmark camera, the upsampled test grids and the warm / cold frame
 //! timing.
 // Each example uses part of this module.
 #![allow(dead_code)]
@@ -207,6 +207,23 @@ pub fn mapped_grid(
         t0.elapsed().as_secs_f64() * 1e3
     );
     (n, open_grid(), m)
+}
+
+/// The bundled Puget Sound DEM (1025^2) at the benchmarks' scale: 160 m spacing, heights in
+/// metres (`z_scale` 0.1).
+pub fn puget() -> relief_io::Dem {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
+    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
+    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    dem
+}
+
+/// Every sample's local height, row-major.
+pub fn local_heights<T: Terrain>(t: &T) -> Vec<f32> {
+    (0..t.height())
+        .flat_map(|y| (0..t.width()).map(move |x| (x, y)))
+        .map(|(x, y)| t.local_z(x, y))
+        .collect()
 }
 
 /// The eye's x of the benchmark view (metres).
