@@ -4,9 +4,15 @@
 //!
 //! `DEM=../shared/data/pymartini_terrarium.png FORMAT=terrarium ES="1 5" cargo run --release -p
 //! relief-benches --example tin_probe` (defaults: the bundled Puget Sound DEM, 160 m spacing,
-//! z scale 0.1, `ES="50 20"`; `FORMAT` one of png, terrain-rgb, terrarium, tiff)
+//! z scale 0.1, `ES="50 20"`; `FORMAT` one of png, terrain-rgb, terrarium, tiff).
+//!
+//! `SPADE=1` also times spade alone on each mesh's vertices: inserted in the build's order (the
+//! corners, then the greedy order) into an empty `DelaunayTriangulation` with spade's hierarchy
+//! hint generator, fastest of `RUNS`. That is the triangulation work every greedy build with
+//! spade does, without choosing the points, scanning the samples or keeping the heap.
 
 use relief_tin::{Tin, TinOptions};
+use spade::{DelaunayTriangulation, HierarchyHintGenerator, Point2, Triangulation};
 use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -44,15 +50,33 @@ fn main() {
         let o = TinOptions::default().with_max_error(e);
         let mut best = f64::INFINITY;
         let mut size = (0, 0);
+        let mut vertices = Vec::new();
         for _ in 0..runs.max(1) {
             let s = Instant::now();
             let tin = black_box(Tin::build(&hf, &o).unwrap());
             best = best.min(s.elapsed().as_secs_f64() * 1e3);
             size = (tin.vertices().len(), tin.triangles().len());
+            vertices = tin.vertices().to_vec();
         }
-        println!(
+        print!(
             "E={e:<8} {:>9} vertices {:>9} triangles {best:9.2} ms",
             size.0, size.1
         );
+        if env("SPADE").is_some_and(|v| v == "1") {
+            type Dt = DelaunayTriangulation<Point2<f32>, (), (), (), HierarchyHintGenerator<f32>>;
+            let mut best_s = f64::INFINITY;
+            let mut faces = 0;
+            for _ in 0..runs.max(1) {
+                let s = Instant::now();
+                let mut dt = Dt::new();
+                for &[x, y] in &vertices {
+                    dt.insert(Point2::new(x as f32, y as f32)).unwrap();
+                }
+                best_s = best_s.min(s.elapsed().as_secs_f64() * 1e3);
+                faces = black_box(&dt).num_inner_faces();
+            }
+            print!("  | spade alone {faces:>9} triangles {best_s:9.2} ms");
+        }
+        println!();
     }
 }
