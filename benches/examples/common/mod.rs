@@ -1,6 +1,6 @@
 //! Shared by the refinement examples (`refine_scale`, `refine_mapped`, `refine_pages`,
-//! `refine_probe`, and the yardsticks `vd_lean`, `mip_lean`): the bundled DEM, the benchmark camera, the upsampled test grids and the warm / cold frame
-//! timing.
+//! `refine_probe`) and the yardsticks (`vd_lean`, `mip_lean`): the bundled DEM, the benchmark
+//! camera, the upsampled test grids and the warm / cold frame timing.
 // Each example uses part of this module.
 #![allow(dead_code)]
 
