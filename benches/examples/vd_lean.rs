@@ -4,7 +4,9 @@
 //! SOAR's projected-error test from the sphere, frustum culling with an active-plane mask (lazy
 //! below the last 4 levels) and an indexed output: each vertex numbered at its first use through
 //! a per-frame stamp array. The same camera and thresholds as `refine_probe`'s `vd` rows; it
-//! prints its triangle count beside `Refiner::triangles`'s, for the same work.
+//! prints its triangle count beside `Refiner::triangles`'s, for the same work. Two more timings:
+//! the same walk counting triangles only (no output), and that count with an explicit stack
+//! instead of recursion.
 //!
 //! `cargo run --release -p relief-benches --example vd_lean` (`RUNS=n`; `COUNT=0` leaves out the
 //! count-only frames)
@@ -69,15 +71,12 @@ impl Lean<'_> {
         o.nt += 1;
     }
 
-    fn walk(&self, o: &mut Out<'_>, l: P, r: P, a: P, planes: u8, level: u32) {
-        if level >= self.levels {
-            self.emit(o, l, r, a);
-            return;
-        }
-        let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
+    /// The decision for split vertex `m` at `level`: `None` if its sphere is outside an active
+    /// plane (culled), else whether it splits and the planes still active.
+    #[inline(always)]
+    fn decide(&self, m: P, planes: u8, level: u32) -> Option<(bool, u8)> {
         let i = (m.1 * self.w + m.0) as usize;
-        let e = self.err[i];
-        let rr = self.rad[i];
+        let (e, rr) = (self.err[i], self.rad[i]);
         let (px, py, pz) = (m.0 as f32 * self.sx, m.1 as f32 * self.sy, self.z[i]);
         let mut planes = planes;
         if planes != 0 && level < self.lazy_from {
@@ -88,7 +87,7 @@ impl Lean<'_> {
                 let p = self.planes[k];
                 let c = p[0] * px + p[1] * py + p[2] * pz + p[3];
                 if c + rr < 0.0 {
-                    return;
+                    return None;
                 }
                 if c - rr > 0.0 {
                     planes &= !(1 << k);
@@ -97,11 +96,56 @@ impl Lean<'_> {
         }
         let (dx, dy, dz) = (self.eye[0] - px, self.eye[1] - py, self.eye[2] - pz);
         let reach = e * self.k + rr;
-        if e > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz {
-            self.walk(o, a, l, m, planes, level + 1);
-            self.walk(o, r, a, m, planes, level + 1);
-        } else {
+        Some((
+            e > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz,
+            planes,
+        ))
+    }
+
+    /// The count-only walk with an explicit stack instead of recursion.
+    fn count_iter(&self, roots: [(P, P, P); 2]) -> usize {
+        let mut stack = [((0u32, 0u32), (0u32, 0u32), (0u32, 0u32), 0u8, 0u32); 64];
+        let mut sp = 0;
+        for (l, r, a) in roots {
+            stack[sp] = (l, r, a, 0b01_1111, 0);
+            sp += 1;
+        }
+        let mut n = 0;
+        while sp > 0 {
+            sp -= 1;
+            let (l, r, a, planes, level) = stack[sp];
+            if level >= self.levels {
+                n += 1;
+                continue;
+            }
+            let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
+            match self.decide(m, planes, level) {
+                None => {}
+                Some((true, p)) => {
+                    // The second child below the first, so the first is taken next.
+                    stack[sp] = (r, a, m, p, level + 1);
+                    stack[sp + 1] = (a, l, m, p, level + 1);
+                    sp += 2;
+                }
+                Some((false, _)) => n += 1,
+            }
+        }
+        n
+    }
+
+    fn walk(&self, o: &mut Out<'_>, l: P, r: P, a: P, planes: u8, level: u32) {
+        if level >= self.levels {
             self.emit(o, l, r, a);
+            return;
+        }
+        let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
+        match self.decide(m, planes, level) {
+            None => {}
+            Some((true, p)) => {
+                self.walk(o, a, l, m, p, level + 1);
+                self.walk(o, r, a, m, p, level + 1);
+            }
+            Some((false, _)) => self.emit(o, l, r, a),
         }
     }
 }
@@ -156,6 +200,7 @@ fn main() {
         // The three are interleaved frame by frame, so that a change of the machine's speed
         // hits them alike; each keeps its fastest frame.
         let (mut best, mut best_c, mut best_r) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        let mut best_i = f64::INFINITY;
         let (mut nv, mut nt, mut nt_c) = (0, 0, 0);
         let mut c = Default::default();
         for _ in 0..runs {
@@ -190,13 +235,20 @@ fn main() {
                 }
             }
             let s = Instant::now();
+            let ni = black_box(lean.count_iter([
+                ((side, side), (0, 0), (side, 0)),
+                ((0, 0), (side, side), (0, side)),
+            ]));
+            assert_eq!(ni, nt);
+            best_i = best_i.min(s.elapsed().as_secs_f64() * 1e3);
+            let s = Instant::now();
             c = black_box(r.triangles(&mut scratch, &mut verts, &mut tris).unwrap());
             best_r = best_r.min(s.elapsed().as_secs_f64() * 1e3);
         }
         assert_eq!(nt, nt_c);
         let c: relief_core::refine::FrameCounts = c;
         println!(
-            "tau={tau:<4} lean {nt:>7} tris {nv:>7} verts {best:8.3} ms {:6.1} M tris/s (count only {best_c:7.3} ms) | Refiner::triangles {:>7} tris {:>7} verts {best_r:8.3} ms {:6.1} M tris/s",
+            "tau={tau:<4} lean {nt:>7} tris {nv:>7} verts {best:8.3} ms {:6.1} M tris/s (count only {best_c:7.3} ms, iterative {best_i:7.3} ms) | Refiner::triangles {:>7} tris {:>7} verts {best_r:8.3} ms {:6.1} M tris/s",
             nt as f64 / best / 1e3,
             c.triangles,
             c.vertices,
