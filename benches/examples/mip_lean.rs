@@ -195,10 +195,7 @@ impl Lean<'_> {
 }
 
 fn main() {
-    let runs: usize = std::env::var("RUNS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(9);
+    let runs = common::runs(9);
     let dem = common::puget();
     let (w, h) = (dem.width, dem.height);
     let hf = Heightfield::with_scale(&dem.samples, w, h, dem.scale).unwrap();

@@ -11,22 +11,16 @@ use relief_core::refine::{
 };
 use relief_core::Heightfield;
 use std::hint::black_box;
-use std::path::Path;
 use std::time::Instant;
 
 mod common;
 use common::{camera, Buffer, BENCH_EYE_X};
 
 fn main() {
-    let runs: usize = std::env::var("RUNS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(30);
+    let runs = common::runs(30);
     // Optional substring filter on "<case> <layout>", e.g. FILTER="vd tau=1 full".
     let filter = std::env::var("FILTER").unwrap_or_default();
-    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/puget_sound_1k.png");
-    let mut dem = relief_io::read_dem(&p, &Default::default()).expect("bundled DEM");
-    dem.scale = dem.scale.with_spacing(160.0, 160.0).with_z_scale(0.1);
+    let dem = common::puget();
     let (w, h) = (dem.width, dem.height);
     // HUGE=1: every per-vertex array (heights, hierarchy, records, scratch, outputs) in
     // anonymous memory with transparent huge pages requested.

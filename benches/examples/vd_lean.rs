@@ -151,10 +151,7 @@ impl Lean<'_> {
 }
 
 fn main() {
-    let runs: usize = std::env::var("RUNS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(30);
+    let runs = common::runs(30);
     let dem = common::puget();
     let (w, h) = (dem.width, dem.height);
     assert!(w == h && (w - 1).is_power_of_two(), "a square 2^k + 1 grid");
@@ -162,9 +159,15 @@ fn main() {
     let n = hierarchy_len(w, h);
     let (mut ef, mut rf) = (vec![0.0f32; n], vec![0.0f32; n]);
     let full = preprocess(&hf, &mut ef, &mut rf).unwrap();
-    // A second copy for the lean walk, which reads the arrays directly.
-    let (mut e2, mut r2) = (vec![0.0f32; n], vec![0.0f32; n]);
-    let _ = preprocess(&hf, &mut e2, &mut r2).unwrap();
+    // The lean walk reads plain row-major arrays: the hierarchy's own values, copied out. The
+    // grid's corners have none (they are never split vertices, and the walk never reads them).
+    let grid = || (0..h).flat_map(|y| (0..w).map(move |x| (x, y)));
+    let e2: Vec<f32> = grid()
+        .map(|(x, y)| full.error(x, y).unwrap_or(0.0))
+        .collect();
+    let r2: Vec<f32> = grid()
+        .map(|(x, y)| full.radius(x, y).unwrap_or(0.0))
+        .collect();
     let z = common::local_heights(&hf);
     let side = w - 1;
     let levels = 2 * side.trailing_zeros();

@@ -209,6 +209,15 @@ pub fn mapped_grid(
     (n, open_grid(), m)
 }
 
+/// The `RUNS` environment variable (how many timed repetitions), `default` when unset or not
+/// a number.
+pub fn runs(default: usize) -> usize {
+    std::env::var("RUNS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
+}
+
 /// The bundled Puget Sound DEM (1025^2) at the benchmarks' scale: 160 m spacing, heights in
 /// metres (`z_scale` 0.1).
 pub fn puget() -> relief_io::Dem {
