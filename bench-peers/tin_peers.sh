@@ -10,17 +10,9 @@
 #
 # usage: bench-peers/tin_peers.sh            (env: ROUNDS=3, DATA=../shared/data, RELIEF=path)
 # prints one JSON line per tool, DEM and E, then a table (tin_summary.py).
-set -euo pipefail
-here=$(cd "$(dirname "$0")" && pwd)
-root=$(dirname "$here")
-DATA=${DATA:-$root/../shared/data}
-ROUNDS=${ROUNDS:-3}
-cd "$here"
-
 # Peers, installed from the registries into this folder (git-ignored).
-if [ ! -x .venv/bin/python ]; then python3 -m venv .venv; fi
-.venv/bin/python -c "import pydelatin, numpy, PIL" 2>/dev/null ||
-    .venv/bin/pip install -q "pydelatin==0.4.0" numpy pillow
+# shellcheck source=bench-peers/tin_common.sh
+source "$(dirname "$0")/tin_common.sh"
 [ -f node_modules/delatin/package.json ] ||
     npm install --no-save --no-audit --no-fund "delatin@0.2.0" >/dev/null
 
