@@ -1,3 +1,4 @@
+# shellcheck shell=bash
 # Sourced by the TIN peer scripts (tin_peers.sh, tin_robust_ab.sh): strict mode, the folders
 # they work in and pydelatin 0.4.0 (PyPI) installed into bench-peers/.venv. Sets `here` (this
 # folder, also the working directory), `root` (the repository), DATA and ROUNDS (defaults

@@ -59,7 +59,7 @@ specs=(
     "pysheds_dem.tif:tiff:0.5 1"
 )
 out="$tmp/results.jsonl"
-for round in $(seq "$ROUNDS"); do
+for _ in $(seq "$ROUNDS"); do
 for spec in "${specs[@]}"; do
     IFS=: read -r name fmt errors <<<"$spec"
     raw="$tmp/${name%.*}.f32"
