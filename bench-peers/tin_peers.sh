@@ -16,13 +16,6 @@ source "$(dirname "$0")/tin_common.sh"
 [ -f node_modules/delatin/package.json ] ||
     npm install --no-save --no-audit --no-fund "delatin@0.2.0" >/dev/null
 
-if [ -z "${RELIEF:-}" ]; then
-    (cd "$root" && cargo build --release -q -p relief-cli)
-    RELIEF="${CARGO_TARGET_DIR:-$root/target}/release/relief"
-fi
-
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
 out="$tmp/results.jsonl"
 
 # file : format : E list (in the file's height units: metres, except the 16-bit PNG's decimetres)
@@ -45,21 +38,13 @@ for spec in "${specs[@]}"; do
         [ "$round" = 1 ] && echo "skipped: $src not present" >&2
         continue
     fi
-    raw="$tmp/${name%.*}.f32"
-    [ -f "$raw" ] || .venv/bin/python dem_to_raw.py "$src" "$fmt" "$raw" >"$raw.size"
-    read -r w h <"$raw.size"
+    dem_raw "$name" "$fmt"
     # shellcheck disable=SC2086
-    .venv/bin/python pydelatin_run.py "$raw" "$w" "$h" 2 $errors | sed "s/^{/{\"dem\": \"$name\", /" | tee -a "$out"
+    pydelatin_lines "$name" $errors | tee -a "$out"
     # shellcheck disable=SC2086
     node delatin_run.mjs "$raw" "$w" "$h" 2 $errors | sed "s/^{/{\"dem\": \"$name\", /" | tee -a "$out"
     for e in $errors; do for _ in 1 2; do
-        "$RELIEF" mesh --method tin --dem "$raw" --format raw-f32 --width "$w" --height "$h" \
-            --max-error "$e" --out "$tmp/tin.obj" --json | .venv/bin/python -c '
-import json, sys
-r = json.load(sys.stdin)
-print(json.dumps({"dem": sys.argv[1], "tool": "relief-tin", "max_error": float(sys.argv[2]),
-    "vertices": r["vertices"], "triangles": r["triangles"], "error": r["max_error_measured"],
-    "ms": r["refine_ms"], "cpu_ms": r.get("refine_cpu_ms")}))' "$name" "$e" | tee -a "$out"
+        relief_tin_line "$RELIEF" "$name" "$e" relief-tin | tee -a "$out"
     done; done
 done
 done

@@ -17,15 +17,6 @@ ROUNDS=${ROUNDS:-8}
 # shellcheck source=bench-peers/tin_common.sh
 source "$(dirname "$0")/tin_common.sh"
 
-tmp=$(mktemp -d)
-trap 'rm -rf "$tmp"' EXIT
-
-# A: the repository's own build.
-if [ -z "${RELIEF:-}" ]; then
-    (cd "$root" && cargo build --release -q -p relief-cli)
-    RELIEF="${CARGO_TARGET_DIR:-$root/target}/release/relief"
-fi
-
 # B: the same sources against a patched copy of robust.
 (cd "$root" && cargo fetch -q)
 src=$(find "${CARGO_HOME:-$HOME/.cargo}/registry/src" -maxdepth 2 -type d -name 'robust-1.2.0' | head -n 1)
@@ -46,10 +37,11 @@ early = (
 )
 open(p, "w").write(s.replace(anchor, early + anchor))
 EOF
+# The patch rewrites Cargo.lock: put the repository's back on every exit, failed builds included.
 cp "$root/Cargo.lock" "$tmp/Cargo.lock.saved"
+trap 'cp "$tmp/Cargo.lock.saved" "$root/Cargo.lock"; rm -rf "$tmp"' EXIT
 (cd "$root" && CARGO_TARGET_DIR="$root/target/robust-ab" cargo build --release -q -p relief-cli \
     --config "patch.crates-io.robust.path=\"$tmp/robust\"")
-cp "$tmp/Cargo.lock.saved" "$root/Cargo.lock"
 PATCHED="$root/target/robust-ab/release/relief"
 
 # file : format : E list
@@ -62,26 +54,12 @@ out="$tmp/results.jsonl"
 for _ in $(seq "$ROUNDS"); do
 for spec in "${specs[@]}"; do
     IFS=: read -r name fmt errors <<<"$spec"
-    raw="$tmp/${name%.*}.f32"
-    [ -f "$raw" ] || .venv/bin/python dem_to_raw.py "$DATA/$name" "$fmt" "$raw" >"$raw.size"
-    read -r w h <"$raw.size"
+    dem_raw "$name" "$fmt"
     # shellcheck disable=SC2086
-    .venv/bin/python pydelatin_run.py "$raw" "$w" "$h" 2 $errors |
-        sed "s/^{/{\"dem\": \"$name\", /" >>"$out"
+    pydelatin_lines "$name" $errors >>"$out"
     for e in $errors; do
-        for side in A B; do
-            bin=$RELIEF
-            [ "$side" = B ] && bin=$PATCHED
-            "$bin" mesh --method tin --dem "$raw" --format raw-f32 --width "$w" --height "$h" \
-                --max-error "$e" --out "$tmp/$side.obj" --json >"$tmp/$side.json"
-            .venv/bin/python -c '
-import json, sys
-r = json.load(sys.stdin)
-print(json.dumps({"dem": sys.argv[1], "tool": sys.argv[2], "max_error": float(sys.argv[3]),
-    "triangles": r["triangles"], "ms": r["refine_ms"], "cpu_ms": r["refine_cpu_ms"],
-    "obj": sys.argv[4]}))' "$name" "relief-$side" "$e" "$(sha256sum <"$tmp/$side.obj" | cut -c1-16)" \
-                <"$tmp/$side.json" >>"$out"
-        done
+        relief_tin_line "$RELIEF" "$name" "$e" relief-A >>"$out"
+        relief_tin_line "$PATCHED" "$name" "$e" relief-B >>"$out"
     done
 done
 done
@@ -93,7 +71,7 @@ for line in open(sys.argv[1]):
     r = json.loads(line)
     key = (r["dem"], r["max_error"], r["tool"])
     cpu[key].append(r["cpu_ms"])
-    if "obj" in r:
+    if r["tool"].startswith("relief"):
         meta.setdefault(key, set()).add((r["triangles"], r["obj"]))
 print("| DEM | E | pydelatin CPU ms (fastest / median) | A: relief | B: relief, exact in-circle"
       " short-cut | A / pydelatin (fastest) | B / pydelatin (fastest) | B / A (median) | same meshes |")
