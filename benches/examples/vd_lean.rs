@@ -23,14 +23,7 @@ struct Lean<'a> {
     err: &'a [f32],
     rad: &'a [f32],
     z: &'a [f32],
-    w: u32,
-    levels: u32,
-    lazy_from: u32,
-    sx: f32,
-    sy: f32,
-    eye: [f32; 3],
-    k: f32,
-    planes: [[f32; 4]; 6],
+    v: common::LeanView,
 }
 
 struct Out<'o> {
@@ -50,11 +43,11 @@ type P = (u32, u32);
 impl Lean<'_> {
     #[inline(always)]
     fn vertex(&self, o: &mut Out<'_>, p: P) -> u32 {
-        let i = (p.1 * self.w + p.0) as usize;
+        let i = (p.1 * self.v.w + p.0) as usize;
         if o.stamp[i] != o.frame {
             o.stamp[i] = o.frame;
             o.index[i] = o.nv as u32;
-            o.verts[o.nv] = [p.0 as f32 * self.sx, p.1 as f32 * self.sy, self.z[i]];
+            o.verts[o.nv] = [p.0 as f32 * self.v.sx, p.1 as f32 * self.v.sy, self.z[i]];
             o.nv += 1;
         }
         o.index[i]
@@ -75,31 +68,11 @@ impl Lean<'_> {
     /// plane (culled), else whether it splits and the planes still active.
     #[inline(always)]
     fn decide(&self, m: P, planes: u8, level: u32) -> Option<(bool, u8)> {
-        let i = (m.1 * self.w + m.0) as usize;
+        let i = (m.1 * self.v.w + m.0) as usize;
         let (e, rr) = (self.err[i], self.rad[i]);
-        let (px, py, pz) = (m.0 as f32 * self.sx, m.1 as f32 * self.sy, self.z[i]);
-        let mut planes = planes;
-        if planes != 0 && level < self.lazy_from {
-            let mut rest = planes;
-            while rest != 0 {
-                let k = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                let p = self.planes[k];
-                let c = p[0] * px + p[1] * py + p[2] * pz + p[3];
-                if c + rr < 0.0 {
-                    return None;
-                }
-                if c - rr > 0.0 {
-                    planes &= !(1 << k);
-                }
-            }
-        }
-        let (dx, dy, dz) = (self.eye[0] - px, self.eye[1] - py, self.eye[2] - pz);
-        let reach = e * self.k + rr;
-        Some((
-            e > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz,
-            planes,
-        ))
+        self.v
+            .decide((m.0, m.1, level), (e, rr, self.z[i]), u32::from(planes))
+            .map(|(s, p)| (s, p as u8))
     }
 
     /// The count-only walk with an explicit stack instead of recursion.
@@ -114,7 +87,7 @@ impl Lean<'_> {
         while sp > 0 {
             sp -= 1;
             let (l, r, a, planes, level) = stack[sp];
-            if level >= self.levels {
+            if level >= self.v.levels {
                 n += 1;
                 continue;
             }
@@ -134,7 +107,7 @@ impl Lean<'_> {
     }
 
     fn walk(&self, o: &mut Out<'_>, l: P, r: P, a: P, planes: u8, level: u32) {
-        if level >= self.levels {
+        if level >= self.v.levels {
             self.emit(o, l, r, a);
             return;
         }
@@ -159,24 +132,11 @@ fn main() {
     let n = hierarchy_len(w, h);
     let (mut ef, mut rf) = (vec![0.0f32; n], vec![0.0f32; n]);
     let full = preprocess(&hf, &mut ef, &mut rf).unwrap();
-    // The lean walk reads plain row-major arrays: the hierarchy's own values, copied out. The
-    // grid's corners have none (they are never split vertices, and the walk never reads them).
-    let grid = || (0..h).flat_map(|y| (0..w).map(move |x| (x, y)));
-    let e2: Vec<f32> = grid()
-        .map(|(x, y)| full.error(x, y).unwrap_or(0.0))
-        .collect();
-    let r2: Vec<f32> = grid()
-        .map(|(x, y)| full.radius(x, y).unwrap_or(0.0))
-        .collect();
-    let z = common::local_heights(&hf);
     let side = w - 1;
-    let levels = 2 * side.trailing_zeros();
     let cam = camera(BENCH_EYE_X);
-    let planes4 = cam.frustum_planes(0.1, 0.1 * 1e6).unwrap();
-    let mut planes = [[0.0f32; 4]; 6];
-    for (o, p) in planes.iter_mut().zip(planes4.iter()) {
-        *o = [p.x, p.y, p.z, p.w + p.z * dem.scale.z_offset];
-    }
+    // The lean walk reads plain row-major arrays: the hierarchy's own values, copied out.
+    let li = common::lean_inputs(&hf, &full, &cam);
+    let (e2, r2, z, planes) = (&li.err, &li.rad, &li.z, li.planes);
     let mut stamp = vec![0u32; (w * h) as usize];
     let mut index = vec![0u32; (w * h) as usize];
     let mut verts = vec![[0.0f32; 3]; n];
@@ -187,17 +147,10 @@ fn main() {
     let with_count = std::env::var("COUNT").map_or(true, |v| v != "0");
     for tau in [0.5f32, 1.0, 4.0] {
         let lean = Lean {
-            err: &e2,
-            rad: &r2,
-            z: &z,
-            w,
-            levels,
-            lazy_from: levels - 4,
-            sx: dem.scale.dx,
-            sy: dem.scale.dy,
-            eye: [cam.eye.x, cam.eye.y, cam.eye.z - dem.scale.z_offset],
-            k: cam.kappa() / tau,
-            planes,
+            err: e2,
+            rad: r2,
+            z,
+            v: common::LeanView::new(&dem, &cam, tau, planes),
         };
         let r = Refiner::new(&full, &hf, Criterion::View(View::new(&cam, tau).unwrap())).unwrap();
         // The three are interleaved frame by frame, so that a change of the machine's speed

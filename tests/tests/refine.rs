@@ -26,7 +26,39 @@ fn refine<T: Terrain>(h: &Hierarchy<'_>, t: &T, c: Criterion) -> Mesh {
     let mut tr = vec![[0; 3]; n.triangles];
     assert_eq!(r.triangles(&mut s, &mut v, &mut tr).unwrap(), n);
     same_with_popcnt(&r, &mut s, &v, &tr);
+    same_as_grid_triangles(&r, t, &v, &tr);
     Mesh { v, t: tr }
+}
+
+/// `grid_triangles` gives the indexed list's triangles in its order, each corner as the grid
+/// index of its vertex, and refuses a buffer one element short.
+fn same_as_grid_triangles<T: Terrain>(
+    r: &Refiner<'_, '_, T>,
+    t: &T,
+    v: &[[f32; 3]],
+    tr: &[[u32; 3]],
+) {
+    let mut g = vec![[u32::MAX; 3]; tr.len()];
+    assert_eq!(r.grid_triangles(&mut g).unwrap(), tr.len());
+    let s = t.scale();
+    let w = t.width();
+    for (gt, lt) in g.iter().zip(tr) {
+        for (&gi, &li) in gt.iter().zip(lt) {
+            let p = v[li as usize];
+            let (x, y) = (gi % w, gi / w);
+            assert_eq!(
+                ((p[0] / s.dx).round() as u32, (p[1] / s.dy).round() as u32),
+                (x, y)
+            );
+            assert_eq!(p[2].to_bits(), (t.local_z(x, y) + s.z_offset).to_bits());
+        }
+    }
+    if let Some(short) = tr.len().checked_sub(1) {
+        assert!(matches!(
+            r.grid_triangles(&mut g[..short]),
+            Err(Error::BufferTooSmall { .. })
+        ));
+    }
 }
 
 /// `triangles_popcnt` (where the CPU has popcnt) writes exactly what `triangles` wrote, and

@@ -235,6 +235,130 @@ pub fn local_heights<T: Terrain>(t: &T) -> Vec<f32> {
         .collect()
 }
 
+/// What the lean yardsticks (`vd_lean`, `vd_bfs`) read, row-major: the full hierarchy's own
+/// errors and radii copied out (0 at the grid's corners, which have none: they are never split
+/// vertices, and the walks never read them), every sample's local height, and `cam`'s frustum
+/// planes (near 0.1, far 1e5) against local heights.
+pub struct LeanInputs {
+    /// Nested error per sample.
+    pub err: Vec<f32>,
+    /// Nested bounding-sphere radius per sample.
+    pub rad: Vec<f32>,
+    /// Local height per sample.
+    pub z: Vec<f32>,
+    /// Frustum planes `[a, b, c, d]`: `a x + b y + c z_local + d >= 0` inside.
+    pub planes: [[f32; 4]; 6],
+}
+
+/// A lean yardstick's frame constants (`vd_lean`, `vd_bfs`): a square `2^k + 1` grid of
+/// width `w` with `levels` levels, culling above `lazy_from`, spacing `sx`, `sy`, the eye in
+/// local heights, `k = kappa / tau` and the frustum planes of [`LeanInputs`].
+pub struct LeanView {
+    /// Grid width.
+    pub w: u32,
+    /// Levels of the hierarchy.
+    pub levels: u32,
+    /// First level without culling (lazy culling).
+    pub lazy_from: u32,
+    /// Spacing in x.
+    pub sx: f32,
+    /// Spacing in y.
+    pub sy: f32,
+    /// Eye, local heights.
+    pub eye: [f32; 3],
+    /// `kappa / tau`.
+    pub k: f32,
+    /// Frustum planes.
+    pub planes: [[f32; 4]; 6],
+}
+
+impl LeanView {
+    /// The frame of `cam` at `tau` pixels over `dem` (square `2^k + 1`), lazy below the last 4
+    /// levels.
+    pub fn new(
+        dem: &relief_io::Dem,
+        cam: &relief_core::Camera,
+        tau: f32,
+        planes: [[f32; 4]; 6],
+    ) -> LeanView {
+        let levels = 2 * (dem.width - 1).trailing_zeros();
+        LeanView {
+            w: dem.width,
+            levels,
+            lazy_from: levels - 4,
+            sx: dem.scale.dx,
+            sy: dem.scale.dy,
+            eye: [cam.eye.x, cam.eye.y, cam.eye.z - dem.scale.z_offset],
+            k: cam.kappa() / tau,
+            planes,
+        }
+    }
+
+    /// The decision for the split vertex at `(x, y)` on `level` with error `e`, radius `r` and
+    /// local height `z` (SOAR's sphere test; frustum culling with the active-plane mask
+    /// `planes` above the lazy levels): `None` if its sphere is outside an active plane
+    /// (culled), else whether it splits and the planes still active.
+    #[inline(always)]
+    pub fn decide(
+        &self,
+        (x, y, level): (u32, u32, u32),
+        (e, r, z): (f32, f32, f32),
+        planes: u32,
+    ) -> Option<(bool, u32)> {
+        let (px, py, pz) = (x as f32 * self.sx, y as f32 * self.sy, z);
+        let mut planes = planes;
+        if planes != 0 && level < self.lazy_from {
+            let mut rest = planes;
+            while rest != 0 {
+                let i = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let q = self.planes[i];
+                let c = q[0] * px + q[1] * py + q[2] * pz + q[3];
+                if c + r < 0.0 {
+                    return None;
+                }
+                if c - r > 0.0 {
+                    planes &= !(1 << i);
+                }
+            }
+        }
+        let (dx, dy, dz) = (self.eye[0] - px, self.eye[1] - py, self.eye[2] - pz);
+        let reach = e * self.k + r;
+        Some((
+            e > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz,
+            planes,
+        ))
+    }
+}
+
+/// [`LeanInputs`] of `full` (the full layout of `t`, a terrain with scale `scale`) for `cam`.
+pub fn lean_inputs<T: Terrain>(
+    t: &T,
+    full: &relief_core::refine::Hierarchy<'_>,
+    cam: &relief_core::Camera,
+) -> LeanInputs {
+    let (w, h) = (t.width(), t.height());
+    let grid = || (0..h).flat_map(|y| (0..w).map(move |x| (x, y)));
+    let err = grid()
+        .map(|(x, y)| full.error(x, y).unwrap_or(0.0))
+        .collect();
+    let rad = grid()
+        .map(|(x, y)| full.radius(x, y).unwrap_or(0.0))
+        .collect();
+    let planes4 = cam.frustum_planes(0.1, 0.1 * 1e6).unwrap();
+    let mut planes = [[0.0f32; 4]; 6];
+    let off = t.scale().z_offset;
+    for (o, p) in planes.iter_mut().zip(planes4.iter()) {
+        *o = [p.x, p.y, p.z, p.w + p.z * off];
+    }
+    LeanInputs {
+        err,
+        rad,
+        z: local_heights(t),
+        planes,
+    }
+}
+
 /// The eye's x of the benchmark view (metres).
 pub const BENCH_EYE_X: f32 = 112_000.0;
 

@@ -347,6 +347,9 @@ pub unsafe extern "C" fn pc_refine(
             acc += c.triangles as f64;
         }
         acc += r
+            .grid_triangles(view_mut(tris, tris_len))
+            .map_or(0.0, |n| n as f64);
+        acc += r
             .inout_strip(
                 view_mut(scratch, scratch_len),
                 view_mut(verts, verts_len),

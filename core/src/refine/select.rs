@@ -576,6 +576,54 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         self.triangles(scratch, vertices, triangles)
     }
 
+    /// The frame's triangles as indices into the whole sample grid, `y * width + x`,
+    /// counter-clockwise seen from +z: the same triangles in the same order as
+    /// [`Self::triangles`], for a vertex buffer that holds every sample (uploaded once, with
+    /// the heights), so nothing is renumbered and no vertex is written per frame. One
+    /// traversal, no scratch: a vertex that both triangles of its diamond reach is decided
+    /// twice (the same decision, see [`Self::triangles`]). Returns the triangle count;
+    /// [`Error::BufferTooSmall`] if `triangles` is shorter (its contents are then unspecified),
+    /// [`Error::SizeOverflow`] for a grid of more than `2^32` samples.
+    ///
+    /// ```
+    /// use relief_core::refine::{preprocess, scratch_len, Criterion, Refiner, View};
+    /// use relief_core::{Camera, Heightfield};
+    /// use glam::Vec3;
+    /// let s: Vec<f32> = (0..81).map(|i| ((i * 37) % 11) as f32).collect();
+    /// let hf = Heightfield::new(&s, 9, 9).unwrap();
+    /// let (mut e, mut r) = (vec![0.0; 81], vec![0.0; 81]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let cam = Camera::new(Vec3::new(-5.0, -5.0, 20.0), Vec3::new(4.0, 4.0, 0.0), 60.0, 200, 200).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::View(View::new(&cam, 2.0).unwrap())).unwrap();
+    /// let mut grid = vec![[0u32; 3]; 128];
+    /// let n = rf.grid_triangles(&mut grid).unwrap();
+    /// // The indexed list's triangles, corner for corner.
+    /// let (mut v, mut t) = (vec![[0.0f32; 3]; 81], vec![[0u32; 3]; 128]);
+    /// let c = rf.triangles(&mut vec![0; scratch_len(9, 9)], &mut v, &mut t).unwrap();
+    /// assert_eq!(n, c.triangles);
+    /// for (g, t) in grid[..n].iter().zip(&t[..n]) {
+    ///     for (&gi, &ti) in g.iter().zip(t) {
+    ///         let p = v[ti as usize];
+    ///         assert_eq!([(gi % 9) as f32, (gi / 9) as f32], [p[0], p[1]]);
+    ///     }
+    /// }
+    /// assert!(rf.grid_triangles(&mut grid[..n - 1]).is_err());
+    /// ```
+    pub fn grid_triangles(&self, triangles: &mut [[u32; 3]]) -> Result<usize, Error> {
+        if self.g.len() as u64 > IDX + 1 {
+            return Err(Error::SizeOverflow);
+        }
+        let mut sink = RowSink {
+            w: self.g.width() as i64,
+            out: triangles,
+            n: 0,
+        };
+        self.walk_all(&mut sink, false);
+        let n = sink.n;
+        need(n, sink.out.len())?;
+        Ok(n)
+    }
+
     /// Whether view-independent extraction takes [`ViSquare`]: a square grid (`(2^k+1)^2`) of
     /// fewer than `2^32` samples.
     fn square_vi(&self) -> bool {
@@ -1934,6 +1982,25 @@ impl PtSink for GridSink<'_, '_, '_> {
         }
         if let Some(o) = self.out.get_mut(self.n) {
             *o = t;
+        }
+        self.n += 1;
+    }
+}
+
+/// Writes triangles as row-major grid indices (while there is room); no marks, so the
+/// traversal decides every vertex it reaches.
+struct RowSink<'o> {
+    w: i64,
+    out: &'o mut [[u32; 3]],
+    n: usize,
+}
+
+impl PtSink for RowSink<'_> {
+    #[inline(always)]
+    fn tri(&mut self, a: Pt, b: Pt, c: Pt) {
+        let idx = |p: Pt| (p.0 .1 * self.w + p.0 .0) as u32;
+        if let Some(o) = self.out.get_mut(self.n) {
+            *o = [idx(a), idx(b), idx(c)];
         }
         self.n += 1;
     }

@@ -1,0 +1,351 @@
+//! Yardstick, not library code: view-dependent refinement of the `vd_lean` frames (Puget
+//! 1025^2, 0.5 / 1 / 4 px) with the triangles written as grid indices `y * width + x` (the
+//! whole grid as the vertex buffer, nothing renumbered), four ways, interleaved run by run:
+//! - *level by level*: each level's triangles are a flat list decided in one loop with no
+//!   data-dependent branch (children and output written unconditionally, the write positions
+//!   advanced by the decision);
+//! - *depth first*: `vd_lean`'s recursion (same decisions: SOAR's sphere test, frustum culling
+//!   with the active-plane mask, lazy below the last 4 levels, `f32`, a square `2^k + 1` grid,
+//!   each vertex's error, radius and height in one 16-byte row-major record);
+//! - *stack*: the same with an explicit stack;
+//! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
+//!   records, and `Refiner::triangles` (compact vertices, renumbered) for reference.
+//!
+//! The first three give the same triangles (asserted as multisets), `grid_triangles` on the
+//! full layout gives the depth-first walk's triangles in its order (asserted).
+//!
+//! `cargo run --release -p relief-benches --example vd_bfs` (`RUNS=n`)
+
+use relief_core::refine::{
+    hierarchy_len, pack_records, preprocess, records_len, triangle_bound, Criterion, RecordLayout,
+    Refiner, VertexRecord, View,
+};
+use relief_core::Heightfield;
+use std::hint::black_box;
+use std::time::Instant;
+
+mod common;
+use common::{camera, BENCH_EYE_X};
+
+/// A triangle of the bisection hierarchy: hypotenuse `l`-`r`, apex `a`, points packed as
+/// `x | y << 16`, and the planes still active for it.
+#[derive(Clone, Copy, Default, Debug)]
+struct Tri {
+    l: u32,
+    r: u32,
+    a: u32,
+    planes: u32,
+}
+
+struct Frame<'a> {
+    /// Per vertex, row-major: error, radius, local height (one cache line per decision).
+    rec: &'a [[f32; 4]],
+    v: common::LeanView,
+}
+
+#[inline(always)]
+fn xy(p: u32) -> (u32, u32) {
+    (p & 0xffff, p >> 16)
+}
+
+impl Frame<'_> {
+    #[inline(always)]
+    fn index(&self, p: u32) -> u32 {
+        let (x, y) = xy(p);
+        y * self.v.w + x
+    }
+
+    /// `vd_lean`'s decision for split vertex `m` (packed) at `level`: `None` if its sphere is
+    /// outside an active plane (culled), else whether it splits and the planes still active.
+    #[inline(always)]
+    fn decide(&self, m: u32, planes: u32, level: u32) -> Option<(bool, u32)> {
+        let [e, rr, pz, _] = self.rec[self.index(m) as usize];
+        let (x, y) = xy(m);
+        self.v.decide((x, y, level), (e, rr, pz), planes)
+    }
+
+    /// The depth-first walk of `vd_lean` (same decisions), into grid-index triangles: the
+    /// reference.
+    fn dfs(&self, out: &mut Vec<[u32; 3]>, t: Tri, level: u32) {
+        let tri = [self.index(t.l), self.index(t.r), self.index(t.a)];
+        if level >= self.v.levels {
+            out.push(tri);
+            return;
+        }
+        let m = (t.l + t.r) >> 1;
+        let Some((split, planes)) = self.decide(m, t.planes, level) else {
+            return;
+        };
+        if split {
+            let a = Tri {
+                l: t.a,
+                r: t.l,
+                a: m,
+                planes,
+            };
+            let b = Tri {
+                l: t.r,
+                r: t.a,
+                a: m,
+                planes,
+            };
+            self.dfs(out, a, level + 1);
+            self.dfs(out, b, level + 1);
+        } else {
+            out.push(tri);
+        }
+    }
+
+    /// The depth-first walk with an explicit stack (the second child below the first, so the
+    /// output order is the recursion's), into `out`; returns the triangle count.
+    fn dfs_stack(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
+        let mut stack = [(Tri::default(), 0u32); 64];
+        stack[0] = (roots[1], 0);
+        stack[1] = (roots[0], 0);
+        let mut sp = 2usize;
+        let mut no = 0usize;
+        while sp > 0 {
+            sp -= 1;
+            let (t, level) = stack[sp];
+            let tri = [self.index(t.l), self.index(t.r), self.index(t.a)];
+            if level >= self.v.levels {
+                out[no] = tri;
+                no += 1;
+                continue;
+            }
+            let m = (t.l + t.r) >> 1;
+            let Some((split, planes)) = self.decide(m, t.planes, level) else {
+                continue;
+            };
+            if split {
+                stack[sp] = (
+                    Tri {
+                        l: t.r,
+                        r: t.a,
+                        a: m,
+                        planes,
+                    },
+                    level + 1,
+                );
+                stack[sp + 1] = (
+                    Tri {
+                        l: t.a,
+                        r: t.l,
+                        a: m,
+                        planes,
+                    },
+                    level + 1,
+                );
+                sp += 2;
+            } else {
+                out[no] = tri;
+                no += 1;
+            }
+        }
+        no
+    }
+
+    /// One level, level by level: decides every triangle of `cur`, writes the split ones'
+    /// children to `next` and the others (unless culled) to `out` from `no`. Returns the
+    /// children written and the new output length. `CULL`: the level is above the lazy levels.
+    #[inline(always)]
+    fn level<const CULL: bool>(
+        &self,
+        cur: &[Tri],
+        next: &mut [Tri],
+        out: &mut [[u32; 3]],
+        mut no: usize,
+    ) -> (usize, usize) {
+        let mut nn = 0usize;
+        for t in cur {
+            let m = (t.l + t.r) >> 1;
+            let (x, y) = xy(m);
+            let i = (y * self.v.w + x) as usize;
+            let [e, rr, pz, _] = self.rec[i];
+            let (px, py) = (x as f32 * self.v.sx, y as f32 * self.v.sy);
+            let mut planes = t.planes;
+            let mut culled = false;
+            if CULL {
+                for (k, p) in self.v.planes.iter().enumerate() {
+                    let on = (t.planes >> k) & 1 != 0;
+                    let c = p[0] * px + p[1] * py + p[2] * pz + p[3];
+                    culled |= on & (c + rr < 0.0);
+                    planes &= !((u32::from(on & (c - rr > 0.0))) << k);
+                }
+            }
+            let (dx, dy, dz) = (self.v.eye[0] - px, self.v.eye[1] - py, self.v.eye[2] - pz);
+            let reach = e * self.v.k + rr;
+            let split = !culled & (e > 0.0) & (reach * reach > dx * dx + dy * dy + dz * dz);
+            let emit = !culled & !split;
+            next[nn] = Tri {
+                l: t.a,
+                r: t.l,
+                a: m,
+                planes,
+            };
+            next[nn + 1] = Tri {
+                l: t.r,
+                r: t.a,
+                a: m,
+                planes,
+            };
+            nn += 2 * usize::from(split);
+            out[no] = [self.index(t.l), self.index(t.r), self.index(t.a)];
+            no += usize::from(emit);
+        }
+        (nn, no)
+    }
+
+    /// The whole frame level by level; returns the triangle count.
+    fn bfs(&self, roots: [Tri; 2], a: &mut [Tri], b: &mut [Tri], out: &mut [[u32; 3]]) -> usize {
+        a[..2].copy_from_slice(&roots);
+        let mut n = 2usize;
+        let mut no = 0usize;
+        let (mut cur, mut next) = (a, b);
+        for level in 0..self.v.levels {
+            let (nn, o) = if level < self.v.lazy_from {
+                self.level::<true>(&cur[..n], next, out, no)
+            } else {
+                self.level::<false>(&cur[..n], next, out, no)
+            };
+            no = o;
+            n = nn;
+            std::mem::swap(&mut cur, &mut next);
+        }
+        // The finest level: every remaining triangle is a leaf.
+        for t in &cur[..n] {
+            out[no] = [self.index(t.l), self.index(t.r), self.index(t.a)];
+            no += 1;
+        }
+        no
+    }
+}
+
+fn main() {
+    let runs = common::runs(30);
+    let dem = common::puget();
+    let (w, h) = (dem.width, dem.height);
+    assert!(w == h && (w - 1).is_power_of_two() && w < 1 << 15);
+    let hf = Heightfield::with_scale(&dem.samples, w, h, dem.scale).unwrap();
+    let n = hierarchy_len(w, h);
+    let (mut ef, mut rf) = (vec![0.0f32; n], vec![0.0f32; n]);
+    let full = preprocess(&hf, &mut ef, &mut rf).unwrap();
+    let side = w - 1;
+    let cam = camera(BENCH_EYE_X);
+    let li = common::lean_inputs(&hf, &full, &cam);
+    let rec: Vec<[f32; 4]> = (0..li.z.len())
+        .map(|i| [li.err[i], li.rad[i], li.z[i], 0.0])
+        .collect();
+    let planes = li.planes;
+    let bound = triangle_bound(w, h);
+    let mut la = vec![Tri::default(); bound + 2];
+    let mut lb = vec![Tri::default(); bound + 2];
+    let mut out = vec![[0u32; 3]; bound + 1];
+    let mut verts = vec![[0.0f32; 3]; n];
+    let mut tris = vec![[0u32; 3]; bound];
+    let mut scratch = vec![0u64; relief_core::refine::scratch_len(w, h)];
+    let mut out2 = vec![[0u32; 3]; bound];
+    let mut lin = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Linear)];
+    let mut itl = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Interleaved)];
+    let lin_h = pack_records(&full, &hf, RecordLayout::Linear, &mut lin).unwrap();
+    let itl_h = pack_records(&full, &hf, RecordLayout::Interleaved, &mut itl).unwrap();
+    let pack = |x: u32, y: u32| x | (y << 16);
+    let roots = [
+        Tri {
+            l: pack(side, side),
+            r: pack(0, 0),
+            a: pack(side, 0),
+            planes: 0b01_1111,
+        },
+        Tri {
+            l: pack(0, 0),
+            r: pack(side, side),
+            a: pack(0, side),
+            planes: 0b01_1111,
+        },
+    ];
+    for tau in [0.5f32, 1.0, 4.0] {
+        let f = Frame {
+            rec: &rec,
+            v: common::LeanView::new(&dem, &cam, tau, planes),
+        };
+        // Same triangles as the depth-first walk (as a multiset).
+        let mut reference = Vec::new();
+        for t in roots {
+            f.dfs(&mut reference, t, 0);
+        }
+        let reference_in_order = reference.clone();
+        let nt = f.bfs(roots, &mut la, &mut lb, &mut out);
+        let mut got = out[..nt].to_vec();
+        reference.sort_unstable();
+        got.sort_unstable();
+        assert_eq!(
+            got, reference,
+            "level-by-level and depth-first triangles differ"
+        );
+        let crit = Criterion::View(View::new(&cam, tau).unwrap());
+        let r = Refiner::new(&full, &hf, crit).unwrap();
+        let rl = Refiner::new(&lin_h, &hf, crit).unwrap();
+        let ri = Refiner::new(&itl_h, &hf, crit).unwrap();
+        // The library's grid-index list: the depth-first walk's triangles, in its order.
+        let ng = r.grid_triangles(&mut out2).unwrap();
+        assert_eq!(
+            &out2[..ng],
+            &reference_in_order[..],
+            "grid_triangles differs"
+        );
+        let mut best_g = [f64::INFINITY; 3];
+        let mut ngs = [0usize; 3];
+        let ns = f.dfs_stack(roots, &mut out);
+        let mut got = out[..ns].to_vec();
+        got.sort_unstable();
+        assert_eq!(got, reference, "stack and recursive triangles differ");
+        let (mut best, mut best_d, mut best_r) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        let mut best_s = f64::INFINITY;
+        let mut c = Default::default();
+        let mut dfs_out = Vec::with_capacity(bound);
+        for _ in 0..runs {
+            let s = Instant::now();
+            black_box(f.bfs(roots, &mut la, &mut lb, &mut out));
+            best = best.min(s.elapsed().as_secs_f64() * 1e3);
+            let s = Instant::now();
+            black_box(f.dfs_stack(roots, &mut out));
+            best_s = best_s.min(s.elapsed().as_secs_f64() * 1e3);
+            let s = Instant::now();
+            dfs_out.clear();
+            for t in roots {
+                f.dfs(&mut dfs_out, t, 0);
+            }
+            black_box(&dfs_out);
+            best_d = best_d.min(s.elapsed().as_secs_f64() * 1e3);
+            for (k, rf) in [&r, &rl, &ri].into_iter().enumerate() {
+                let s = Instant::now();
+                ngs[k] = black_box(rf.grid_triangles(&mut out2).unwrap());
+                best_g[k] = best_g[k].min(s.elapsed().as_secs_f64() * 1e3);
+            }
+            let s = Instant::now();
+            c = black_box(r.triangles(&mut scratch, &mut verts, &mut tris).unwrap());
+            best_r = best_r.min(s.elapsed().as_secs_f64() * 1e3);
+        }
+        let c: relief_core::refine::FrameCounts = c;
+        println!(
+            "tau={tau:<4} {nt:>7} tris | level by level {best:7.3} ms {:6.1} M/s | depth first {best_d:7.3} ms {:6.1} M/s | stack {best_s:7.3} ms {:6.1} M/s | Refiner::triangles {:>7} tris {best_r:7.3} ms {:6.1} M/s",
+            nt as f64 / best / 1e3,
+            nt as f64 / best_d / 1e3,
+            nt as f64 / best_s / 1e3,
+            c.triangles,
+            c.triangles as f64 / best_r / 1e3
+        );
+        for (k, name) in ["full", "linear records", "interleaved records"]
+            .iter()
+            .enumerate()
+        {
+            println!(
+                "          Refiner::grid_triangles, {name:<20} {:>7} tris {:7.3} ms {:6.1} M/s",
+                ngs[k],
+                best_g[k],
+                ngs[k] as f64 / best_g[k] / 1e3
+            );
+        }
+    }
+}
