@@ -245,6 +245,11 @@ fn main() {
     let mut tris = vec![[0u32; 3]; bound];
     let mut scratch = vec![0u64; relief_core::refine::scratch_len(w, h)];
     let mut out2 = vec![[0u32; 3]; bound];
+    let mut tris_g = [
+        vec![[0u32; 3]; bound],
+        vec![[0u32; 3]; bound],
+        vec![[0u32; 3]; bound],
+    ];
     let mut lin = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Linear)];
     let mut itl = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Interleaved)];
     let lin_h = pack_records(&full, &hf, RecordLayout::Linear, &mut lin).unwrap();
@@ -294,57 +299,75 @@ fn main() {
             &reference_in_order[..],
             "grid_triangles differs"
         );
-        let mut best_g = [f64::INFINITY; 3];
-        let mut ngs = [0usize; 3];
         let ns = f.dfs_stack(roots, &mut out);
         let mut got = out[..ns].to_vec();
         got.sort_unstable();
         assert_eq!(got, reference, "stack and recursive triangles differ");
-        let (mut best, mut best_d, mut best_r) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
-        let mut best_s = f64::INFINITY;
-        let mut c = Default::default();
+        let (r, rl, ri) = (&r, &rl, &ri);
+        let (f, sc, vs, ts) = (&f, &mut scratch, &mut verts, &mut tris);
+        let (la, lb, out, out2) = (&mut la, &mut lb, &mut out, &mut out2);
         let mut dfs_out = Vec::with_capacity(bound);
+        let [g0, g1, g2] = &mut tris_g;
+        type Run<'a> = Box<dyn FnMut() -> usize + 'a>;
+        let mut variants: Vec<(&str, Run<'_>)> = vec![
+            ("level by level", Box::new(|| f.bfs(roots, la, lb, out))),
+            (
+                "depth first",
+                Box::new(|| {
+                    dfs_out.clear();
+                    for t in roots {
+                        f.dfs(&mut dfs_out, t, 0);
+                    }
+                    black_box(&dfs_out).len()
+                }),
+            ),
+            ("stack", Box::new(|| f.dfs_stack(roots, out2))),
+            (
+                "grid_triangles, full",
+                Box::new(|| r.grid_triangles(g0).unwrap()),
+            ),
+            (
+                "grid_triangles, linear records",
+                Box::new(|| rl.grid_triangles(g1).unwrap()),
+            ),
+            (
+                "grid_triangles, interleaved records",
+                Box::new(|| ri.grid_triangles(g2).unwrap()),
+            ),
+            (
+                "triangles, full",
+                Box::new(|| r.triangles(sc, vs, ts).unwrap().triangles),
+            ),
+        ];
+        // Cold: the variants take turns, so each run starts after the others have filled the
+        // caches with their own data (as one refinement per frame between other work would).
+        // Warm: `runs` runs of one variant in a row.
+        let k = variants.len();
+        let (mut cold, mut warm, mut count) =
+            (vec![f64::INFINITY; k], vec![f64::INFINITY; k], vec![0; k]);
         for _ in 0..runs {
-            let s = Instant::now();
-            black_box(f.bfs(roots, &mut la, &mut lb, &mut out));
-            best = best.min(s.elapsed().as_secs_f64() * 1e3);
-            let s = Instant::now();
-            black_box(f.dfs_stack(roots, &mut out));
-            best_s = best_s.min(s.elapsed().as_secs_f64() * 1e3);
-            let s = Instant::now();
-            dfs_out.clear();
-            for t in roots {
-                f.dfs(&mut dfs_out, t, 0);
-            }
-            black_box(&dfs_out);
-            best_d = best_d.min(s.elapsed().as_secs_f64() * 1e3);
-            for (k, rf) in [&r, &rl, &ri].into_iter().enumerate() {
+            for (i, (_, run)) in variants.iter_mut().enumerate() {
                 let s = Instant::now();
-                ngs[k] = black_box(rf.grid_triangles(&mut out2).unwrap());
-                best_g[k] = best_g[k].min(s.elapsed().as_secs_f64() * 1e3);
+                count[i] = black_box(run());
+                cold[i] = cold[i].min(s.elapsed().as_secs_f64() * 1e3);
             }
-            let s = Instant::now();
-            c = black_box(r.triangles(&mut scratch, &mut verts, &mut tris).unwrap());
-            best_r = best_r.min(s.elapsed().as_secs_f64() * 1e3);
         }
-        let c: relief_core::refine::FrameCounts = c;
-        println!(
-            "tau={tau:<4} {nt:>7} tris | level by level {best:7.3} ms {:6.1} M/s | depth first {best_d:7.3} ms {:6.1} M/s | stack {best_s:7.3} ms {:6.1} M/s | Refiner::triangles {:>7} tris {best_r:7.3} ms {:6.1} M/s",
-            nt as f64 / best / 1e3,
-            nt as f64 / best_d / 1e3,
-            nt as f64 / best_s / 1e3,
-            c.triangles,
-            c.triangles as f64 / best_r / 1e3
-        );
-        for (k, name) in ["full", "linear records", "interleaved records"]
-            .iter()
-            .enumerate()
-        {
+        for (i, (_, run)) in variants.iter_mut().enumerate() {
+            for _ in 0..runs {
+                let s = Instant::now();
+                black_box(run());
+                warm[i] = warm[i].min(s.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+        println!("tau={tau} px ({nt} triangles)");
+        for (i, (name, _)) in variants.iter().enumerate() {
             println!(
-                "          Refiner::grid_triangles, {name:<20} {:>7} tris {:7.3} ms {:6.1} M/s",
-                ngs[k],
-                best_g[k],
-                ngs[k] as f64 / best_g[k] / 1e3
+                "  {name:<36} {:>7} tris  cold {:7.3} ms {:6.1} M/s  warm {:7.3} ms {:6.1} M/s",
+                count[i],
+                cold[i],
+                count[i] as f64 / cold[i] / 1e3,
+                warm[i],
+                count[i] as f64 / warm[i] / 1e3
             );
         }
     }
