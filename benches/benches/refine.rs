@@ -116,6 +116,12 @@ fn benches(c: &mut Criterion) {
                     b.iter(|| black_box(r.triangles(&mut scratch, &mut verts, &mut tris).unwrap()))
                 },
             );
+            // The same frame as indices into the whole grid (no renumbering, no vertices).
+            g.bench_with_input(
+                BenchmarkId::new(format!("{name}-grid"), format!("tau={tau}")),
+                &tau,
+                |b, _| b.iter(|| black_box(r.grid_triangles(&mut tris).unwrap())),
+            );
         }
     }
     g.finish();
