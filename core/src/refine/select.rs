@@ -581,7 +581,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// [`Self::triangles`], for a vertex buffer that holds every sample (uploaded once, with
     /// the heights), so nothing is renumbered and no vertex is written per frame. One
     /// traversal, no scratch: a vertex that both triangles of its diamond reach is decided
-    /// twice (the same decision, see [`Self::triangles`]). Returns the triangle count;
+    /// twice, with the same answer (nested errors and bounding spheres make the decision the
+    /// vertex's own; [`Self::triangles`] skips the second one). Returns the triangle count;
     /// [`Error::BufferTooSmall`] if `triangles` is shorter (its contents are then unspecified),
     /// [`Error::SizeOverflow`] for a grid of more than `2^32` samples.
     ///
