@@ -401,11 +401,68 @@ impl MeshPass {
         self.upload_bytes(
             device,
             queue,
-            bytemuck::cast_slice(vertices),
+            Some(bytemuck::cast_slice(vertices)),
             indices,
             false,
             false,
         );
+    }
+
+    /// Uploads every sample of `terrain` as a vertex, index `y * width + x`, at the world
+    /// position [`relief_core::refine::Refiner::triangles`] gives a vertex (`x dx`, `y dy`,
+    /// local height plus `z_offset`, bit for bit): the vertex buffer that
+    /// [`MeshPass::upload_grid_triangles`] indexes. Upload it once per terrain (and again after
+    /// an edit); each frame then writes only its indices.
+    ///
+    /// ```no_run
+    /// # fn f(device: &wgpu::Device, queue: &wgpu::Queue, rf: &relief_core::refine::Refiner<'_, '_, relief_core::Heightfield<'_, f32>>, hf: &relief_core::Heightfield<'_, f32>) {
+    /// use relief_core::Terrain;
+    /// let mut mesh = relief_wgpu::MeshPass::new(device);
+    /// mesh.upload_grid_vertices(device, queue, hf);
+    /// let mut tris = vec![[0u32; 3]; relief_core::refine::triangle_bound(hf.width(), hf.height())];
+    /// let n = rf.grid_triangles(&mut tris).unwrap();
+    /// mesh.upload_grid_triangles(device, queue, bytemuck::cast_slice(&tris[..n]));
+    /// # }
+    /// ```
+    pub fn upload_grid_vertices<T: relief_core::Terrain>(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        terrain: &T,
+    ) {
+        let s = terrain.scale();
+        let (w, h) = (terrain.width(), terrain.height());
+        let vb: Vec<[f32; 3]> = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                [
+                    x as f32 * s.dx,
+                    y as f32 * s.dy,
+                    terrain.local_z(x, y) + s.z_offset,
+                ]
+            })
+            .collect();
+        let vb: &[u8] = bytemuck::cast_slice(&vb);
+        grow(
+            device,
+            &mut self.vertices,
+            vb.len() as u64,
+            wgpu::BufferUsages::VERTEX,
+        );
+        queue.write_buffer(&self.vertices, 0, vb);
+        self.morph = false;
+    }
+
+    /// Uploads this frame's triangle list as indices into the grid vertices of
+    /// [`MeshPass::upload_grid_vertices`] (e.g. [`relief_core::refine::Refiner::grid_triangles`]):
+    /// only the index buffer is written.
+    pub fn upload_grid_triangles(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        indices: &[u32],
+    ) {
+        self.upload_bytes(device, queue, None, indices, false, false);
     }
 
     /// Uploads a generalized triangle strip (e.g. [`relief_core::refine::Refiner::inout_strip`]:
@@ -420,7 +477,7 @@ impl MeshPass {
         self.upload_bytes(
             device,
             queue,
-            bytemuck::cast_slice(vertices),
+            Some(bytemuck::cast_slice(vertices)),
             strip,
             true,
             false,
@@ -441,7 +498,7 @@ impl MeshPass {
         self.upload_bytes(
             device,
             queue,
-            bytemuck::cast_slice(vertices),
+            Some(bytemuck::cast_slice(vertices)),
             indices,
             strip,
             true,
@@ -452,27 +509,29 @@ impl MeshPass {
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
-        vb: &[u8],
+        vb: Option<&[u8]>,
         indices: &[u32],
         strip: bool,
         morph: bool,
     ) {
         let ib: &[u8] = bytemuck::cast_slice(indices);
-        grow(
-            device,
-            &mut self.vertices,
-            vb.len() as u64,
-            wgpu::BufferUsages::VERTEX,
-        );
+        if let Some(vb) = vb {
+            grow(
+                device,
+                &mut self.vertices,
+                vb.len() as u64,
+                wgpu::BufferUsages::VERTEX,
+            );
+            if !vb.is_empty() {
+                queue.write_buffer(&self.vertices, 0, vb);
+            }
+        }
         grow(
             device,
             &mut self.indices,
             ib.len() as u64,
             wgpu::BufferUsages::INDEX,
         );
-        if !vb.is_empty() {
-            queue.write_buffer(&self.vertices, 0, vb);
-        }
         if !ib.is_empty() {
             queue.write_buffer(&self.indices, 0, ib);
         }

@@ -787,14 +787,8 @@ fn effects_change_the_colour_not_the_depth_and_craters_match_the_cpu() {
     assert_ne!(frame.depth, bare.depth, "the craters are visible");
 }
 
-/// GPU depth of `mesh` (already uploaded) against the brute-force CPU intersection of `tris`.
-fn mesh_agreement(
-    g: &Gpu,
-    mesh: &MeshPass,
-    cam: &Camera,
-    verts: &[[f32; 3]],
-    tris: &[u32],
-) -> (f64, usize) {
+/// The depth buffer of `mesh` (already uploaded) drawn from `cam`.
+fn mesh_depth(g: &Gpu, mesh: &MeshPass, cam: &Camera) -> Vec<f32> {
     let target = DepthTarget::new(&g.device, cam.width, cam.height);
     submit(g, |e| {
         mesh.encode(
@@ -808,7 +802,18 @@ fn mesh_agreement(
         )
         .unwrap()
     });
-    let depth = target.read_depth(&g.device, &g.queue).unwrap();
+    target.read_depth(&g.device, &g.queue).unwrap()
+}
+
+/// GPU depth of `mesh` (already uploaded) against the brute-force CPU intersection of `tris`.
+fn mesh_agreement(
+    g: &Gpu,
+    mesh: &MeshPass,
+    cam: &Camera,
+    verts: &[[f32; 3]],
+    tris: &[u32],
+) -> (f64, usize) {
+    let depth = mesh_depth(g, mesh, cam);
     let mut gd = Vec::new();
     let mut cd = Vec::new();
     for j in 0..cam.height {
@@ -830,7 +835,7 @@ fn mesh_agreement(
 }
 
 #[test]
-fn mesh_pass_draws_in_out_strips_and_geomorphs_like_the_cpu() {
+fn mesh_pass_draws_strips_geomorphs_and_grid_triangles_like_the_cpu() {
     let Some(g) = gpu() else { return };
     let (w, h) = (33, 33);
     let s = synthetic(w, h);
@@ -907,6 +912,31 @@ fn mesh_pass_draws_in_out_strips_and_geomorphs_like_the_cpu() {
     let unmorphed: Vec<[f32; 3]> = morph.iter().map(|m| m.position).collect();
     let (same, _) = mesh_agreement(g, &mesh, &cam, &unmorphed, &idx);
     assert!(same < 0.999, "geomorphing changed nothing ({same})");
+
+    // Grid triangles: every sample uploaded once as a vertex, each frame only its indices.
+    let mut on_grid = MeshPass::new(&g.device);
+    on_grid.upload_grid_vertices(&g.device, &g.queue, &hf);
+    let mut grid = vec![[0u32; 3]; triangle_bound(w, h)];
+    for (k, tau) in [0.5f32, 4.0].into_iter().enumerate() {
+        let rf = Refiner::new(&hier, &hf, Criterion::View(View::new(&cam, tau).unwrap())).unwrap();
+        let c = rf.triangles(&mut scratch, &mut verts, &mut tris).unwrap();
+        let idx: Vec<u32> = tris[..c.triangles].iter().flatten().copied().collect();
+        let n = rf.grid_triangles(&mut grid).unwrap();
+        assert_eq!(n, c.triangles);
+        assert!(n > 100, "{n} triangles");
+        on_grid.upload_grid_triangles(&g.device, &g.queue, bytemuck::cast_slice(&grid[..n]));
+        mesh.upload(&g.device, &g.queue, &verts[..c.vertices], &idx);
+        // The same triangles at the same positions in the same order: the same depth, bit for
+        // bit.
+        let (a, b) = (mesh_depth(g, &mesh, &cam), mesh_depth(g, &on_grid, &cam));
+        assert!(a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()));
+        if k == 0 {
+            // And the picture is the CPU's mesh, not an empty frame drawn twice.
+            let (frac, bad) = mesh_agreement(g, &on_grid, &cam, &verts[..c.vertices], &idx);
+            eprintln!("grid triangles ({n}): depth agreement {frac:.6} ({bad})");
+            assert!(frac >= 0.999, "grid triangles: {frac} ({bad})");
+        }
+    }
 }
 
 /// CPU model of seed 000 in f64: per column, the nearest row whose silhouette reaches the
