@@ -7,7 +7,8 @@
 //! - *depth first*: `vd_lean`'s recursion (same decisions: SOAR's sphere test, frustum culling
 //!   with the active-plane mask, lazy below the last 4 levels, `f32`, a square `2^k + 1` grid,
 //!   each vertex's error, radius and height in one 16-byte row-major record);
-//! - *stack*: the same with an explicit stack;
+//! - *stack*: the same with an explicit stack, and again with the decision in `f64` as the
+//!   library makes it (positions from the grid index, planes, eye and `kappa / tau` in `f64`);
 //! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
 //!   records, and `Refiner::triangles` (compact vertices, renumbered) for reference.
 //!
@@ -59,9 +60,19 @@ impl Frame<'_> {
     /// outside an active plane (culled), else whether it splits and the planes still active.
     #[inline(always)]
     fn decide(&self, m: u32, planes: u32, level: u32) -> Option<(bool, u32)> {
+        self.decide_in::<false>(m, planes, level)
+    }
+
+    /// [`Frame::decide`] in `f32` or (`F64`) in `f64` ([`common::LeanView::decide64`]).
+    #[inline(always)]
+    fn decide_in<const F64: bool>(&self, m: u32, planes: u32, level: u32) -> Option<(bool, u32)> {
         let [e, rr, pz, _] = self.rec[self.index(m) as usize];
         let (x, y) = xy(m);
-        self.v.decide((x, y, level), (e, rr, pz), planes)
+        if F64 {
+            self.v.decide64((x, y, level), (e, rr, pz), planes)
+        } else {
+            self.v.decide((x, y, level), (e, rr, pz), planes)
+        }
     }
 
     /// The depth-first walk of `vd_lean` (same decisions), into grid-index triangles: the
@@ -98,7 +109,7 @@ impl Frame<'_> {
 
     /// The depth-first walk with an explicit stack (the second child below the first, so the
     /// output order is the recursion's), into `out`; returns the triangle count.
-    fn dfs_stack(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
+    fn dfs_stack<const F64: bool>(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
         let mut stack = [(Tri::default(), 0u32); 64];
         stack[0] = (roots[1], 0);
         stack[1] = (roots[0], 0);
@@ -114,7 +125,7 @@ impl Frame<'_> {
                 continue;
             }
             let m = (t.l + t.r) >> 1;
-            let Some((split, planes)) = self.decide(m, t.planes, level) else {
+            let Some((split, planes)) = self.decide_in::<F64>(m, t.planes, level) else {
                 continue;
             };
             if split {
@@ -245,6 +256,7 @@ fn main() {
     let mut tris = vec![[0u32; 3]; bound];
     let mut scratch = vec![0u64; relief_core::refine::scratch_len(w, h)];
     let mut out2 = vec![[0u32; 3]; bound];
+    let mut out64 = vec![[0u32; 3]; bound + 1];
     let mut tris_g = [
         vec![[0u32; 3]; bound],
         vec![[0u32; 3]; bound],
@@ -299,7 +311,7 @@ fn main() {
             &reference_in_order[..],
             "grid_triangles differs"
         );
-        let ns = f.dfs_stack(roots, &mut out);
+        let ns = f.dfs_stack::<false>(roots, &mut out);
         let mut got = out[..ns].to_vec();
         got.sort_unstable();
         assert_eq!(got, reference, "stack and recursive triangles differ");
@@ -321,7 +333,11 @@ fn main() {
                     black_box(&dfs_out).len()
                 }),
             ),
-            ("stack", Box::new(|| f.dfs_stack(roots, out2))),
+            ("stack", Box::new(|| f.dfs_stack::<false>(roots, out2))),
+            (
+                "stack, f64 decisions",
+                Box::new(|| f.dfs_stack::<true>(roots, &mut out64)),
+            ),
             (
                 "grid_triangles, full",
                 Box::new(|| r.grid_triangles(g0).unwrap()),

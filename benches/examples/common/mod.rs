@@ -270,6 +270,8 @@ pub struct LeanView {
     pub k: f32,
     /// Frustum planes.
     pub planes: [[f32; 4]; 6],
+    /// The same planes, eye and `k` in `f64`, for [`LeanView::decide64`].
+    pub f64s: ([[f64; 4]; 6], [f64; 3], f64),
 }
 
 impl LeanView {
@@ -291,6 +293,15 @@ impl LeanView {
             eye: [cam.eye.x, cam.eye.y, cam.eye.z - dem.scale.z_offset],
             k: cam.kappa() / tau,
             planes,
+            f64s: (
+                planes.map(|q| q.map(f64::from)),
+                [
+                    f64::from(cam.eye.x),
+                    f64::from(cam.eye.y),
+                    f64::from(cam.eye.z) - f64::from(dem.scale.z_offset),
+                ],
+                f64::from(cam.kappa()) / f64::from(tau),
+            ),
         }
     }
 
@@ -324,6 +335,46 @@ impl LeanView {
         }
         let (dx, dy, dz) = (self.eye[0] - px, self.eye[1] - py, self.eye[2] - pz);
         let reach = e * self.k + r;
+        Some((
+            e > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz,
+            planes,
+        ))
+    }
+
+    /// [`LeanView::decide`] in `f64`, as the library decides: positions `x dx` from the grid
+    /// index, planes, eye and `k` in `f64`.
+    #[inline(always)]
+    pub fn decide64(
+        &self,
+        (x, y, level): (u32, u32, u32),
+        (e, r, z): (f32, f32, f32),
+        planes: u32,
+    ) -> Option<(bool, u32)> {
+        let (pl, eye, k) = &self.f64s;
+        let (px, py) = (
+            f64::from(x) * f64::from(self.sx),
+            f64::from(y) * f64::from(self.sy),
+        );
+        let (pz, r) = (f64::from(z), f64::from(r));
+        let mut planes = planes;
+        if planes != 0 && level < self.lazy_from {
+            let mut rest = planes;
+            while rest != 0 {
+                let i = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let q = pl[i];
+                let c = q[0] * px + q[1] * py + q[2] * pz + q[3];
+                if c + r < 0.0 {
+                    return None;
+                }
+                if c - r > 0.0 {
+                    planes &= !(1 << i);
+                }
+            }
+        }
+        let (dx, dy, dz) = (eye[0] - px, eye[1] - py, eye[2] - pz);
+        let e = f64::from(e);
+        let reach = e * k + r;
         Some((
             e > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz,
             planes,
