@@ -5,8 +5,9 @@
 use proptest::prelude::*;
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    coverage_len, hierarchy_len, preprocess, preprocess_compact, preprocess_with, scratch_len,
-    strip_bound, vertical_error, Criterion, Hierarchy, PreprocessOptions, Refiner, View,
+    coverage_len, hierarchy_len, pack_records, preprocess, preprocess_compact, preprocess_with,
+    records_len, scratch_len, strip_bound, vertical_error, Criterion, Hierarchy, PreprocessOptions,
+    RecordLayout, Refiner, VertexRecord, View,
 };
 use relief_core::{Camera, Error, Heightfield, Scale, Terrain};
 use relief_io::{read_dem, Format, ReadOptions};
@@ -412,16 +413,26 @@ fn vd_terrain() -> Vd {
 }
 
 fn check_vd(eye: Vec3, target: Vec3, tau: f32) -> usize {
-    let t = vd_terrain();
+    check_vd_on(&vd_terrain(), eye, target, tau)
+}
+
+/// View-dependent meshes of `t` from every layout (full, compact, linear and interleaved
+/// records), with and without culling and lazy culling: crack-free where culling keeps them
+/// whole, within the pixel threshold; returns the samples checked.
+fn check_vd_on(t: &Vd, eye: Vec3, target: Vec3, tau: f32) -> usize {
     let hf = Heightfield::with_scale(&t.s, t.w, t.h, t.scale).unwrap();
     let n = hierarchy_len(t.w, t.h);
     let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
     let full = preprocess(&hf, &mut er, &mut ra).unwrap();
     let mut ec = vec![0u16; n];
     let compact = preprocess_compact(&hf, &mut ec).unwrap();
+    let mut rl = vec![VertexRecord::default(); records_len(t.w, t.h, RecordLayout::Linear)];
+    let lin = pack_records(&full, &hf, RecordLayout::Linear, &mut rl).unwrap();
+    let mut ri = vec![VertexRecord::default(); records_len(t.w, t.h, RecordLayout::Interleaved)];
+    let il = pack_records(&full, &hf, RecordLayout::Interleaved, &mut ri).unwrap();
     let c = cam(eye, target);
     let mut checked = 0;
-    for h in [&full, &compact] {
+    for h in [&full, &compact, &lin, &il] {
         for (culling, lazy) in [(false, 0), (true, 0), (true, 4)] {
             let v = View::new(&c, tau)
                 .unwrap()
@@ -437,6 +448,53 @@ fn check_vd(eye: Vec3, target: Vec3, tau: f32) -> usize {
         }
     }
     checked
+}
+
+/// View-dependent frames of a square grid on every layout: `refine` checks that
+/// `grid_triangles` (which walks square grids its own way) gives the indexed list's triangles
+/// corner for corner; each mesh is crack-free where culling keeps it whole and meets the pixel
+/// threshold.
+#[test]
+fn square_view_dependent_grid_triangles_match_the_list_on_every_layout() {
+    let (w, h) = (129u32, 129u32);
+    let mut s = noise(w, h, 23, 40.0);
+    for (i, v) in s.iter_mut().enumerate() {
+        let (x, y) = ((i as u32 % w) as f32, (i as u32 / w) as f32);
+        *v += 150.0 * (x / 17.0).sin() * (y / 23.0).cos();
+    }
+    let t = Vd {
+        s,
+        w,
+        h,
+        scale: Scale::default().with_spacing(10.0, 10.0),
+    };
+    let views = [
+        (
+            Vec3::new(-200.0, -200.0, 600.0),
+            Vec3::new(600.0, 500.0, 0.0),
+            1.0,
+        ),
+        (
+            Vec3::new(640.0, 640.0, -300.0),
+            Vec3::new(1000.0, 700.0, -300.0),
+            2.0,
+        ),
+        (
+            Vec3::new(0.0, 640.0, 250.0),
+            Vec3::new(1280.0, 640.0, 250.0),
+            0.5,
+        ),
+        (
+            Vec3::new(640.0, 640.0, 1e5),
+            Vec3::new(10_640.0, 640.0, 0.0),
+            1.0,
+        ),
+    ];
+    let checked: usize = views
+        .into_iter()
+        .map(|(eye, target, tau)| check_vd_on(&t, eye, target, tau))
+        .sum();
+    assert!(checked > 1000, "{checked}");
 }
 
 #[test]

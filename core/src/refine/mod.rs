@@ -355,6 +355,11 @@ impl<'a> Hierarchy<'a> {
         }
     }
 
+    /// The per-vertex radii of the full layout, if any.
+    pub(crate) fn radii(&self) -> Option<&'a [f32]> {
+        self.radii
+    }
+
     pub(crate) fn spheres(&self) -> bool {
         self.radii.is_some() || matches!(self.errors, ErrorStore::Records(..))
     }

@@ -5,7 +5,7 @@
 
 use super::grid::{Class, RefineGrid};
 use super::layout::{interleaved_coords, interleaved_index, record_index};
-use super::{ErrorStore, Hierarchy};
+use super::{ErrorStore, Hierarchy, VertexRecord};
 use crate::{Camera, Error, Terrain};
 use glam::Vec4;
 
@@ -619,10 +619,87 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             out: triangles,
             n: 0,
         };
-        self.walk_all(&mut sink, false);
+        let lean = match (self.view.as_ref(), self.h.errors, self.h.radii()) {
+            (Some(v), ErrorStore::F32(err), Some(rad)) if self.lean_square() => {
+                let f = FullFetch {
+                    err,
+                    rad,
+                    t: self.t,
+                };
+                self.lean_walk(v, &f, &mut sink);
+                true
+            }
+            (Some(v), ErrorStore::Records(recs, super::RecordLayout::Linear), _)
+                if self.lean_square() =>
+            {
+                self.lean_walk(v, &RecordFetch { recs }, &mut sink);
+                true
+            }
+            _ => false,
+        };
+        if !lean {
+            self.walk_all(&mut sink, false);
+        }
         let n = sink.n;
         need(n, sink.out.len())?;
         Ok(n)
+    }
+
+    /// Whether [`Self::lean_walk`] applies: a square grid whose packed points
+    /// (`x | y << 32`) add without carrying.
+    fn lean_square(&self) -> bool {
+        self.g.is_square() && self.g.side() < 1 << 30
+    }
+
+    /// [`Self::walk`] for a view-dependent frame of a square grid into a [`RowSink`]: the same
+    /// decisions ([`Self::decide_view`]), the same triangles in the same order, with less state
+    /// per triangle. Corners are packed as `x | y << 32` (a hypotenuse's midpoint is half the
+    /// sum of its ends: both coordinate sums are even and below `2^31`), the vertex data is
+    /// read through `F` (one instance per layout), and an explicit stack replaces the
+    /// recursion (the second child below the first; a pop replaces a triangle of level `k` by
+    /// two of level `k + 1`, so at most `levels() + 1` entries, and at most one pop per
+    /// triangle of the bisection tree).
+    fn lean_walk<F: Fetch>(&self, v: &ViewData, f: &F, sink: &mut RowSink<'_>) {
+        let n = u64::from(self.g.side());
+        let p = |x: u64, y: u64| x | (y << 32);
+        let levels = self.g.levels();
+        let w = self.g.width() as usize;
+        // Entries `(l, r, a, planes, level)`; the second root below the first.
+        let mut stack = [(0u64, 0u64, 0u64, 0u8, 0u8); LEAN_STACK];
+        stack[0] = (p(0, 0), p(n, n), p(0, n), v.mask, 0);
+        stack[1] = (p(n, n), p(0, 0), p(n, 0), v.mask, 0);
+        let mut sp = 2usize;
+        while sp > 0 {
+            sp -= 1;
+            let Some(&(l, r, a, planes, level)) = stack.get(sp) else {
+                break;
+            };
+            let level = u32::from(level);
+            if level >= levels {
+                sink.put(l, r, a);
+                continue;
+            }
+            let m = (l + r) >> 1;
+            let (x, y) = ((m & IDX) as i64, (m >> 32) as i64);
+            let i = y as usize * w + x as usize;
+            let d = match f.fetch(i, x as u32, y as u32) {
+                Some(ezr) => self.decide_view(v, (x, y), ezr, planes, level),
+                None => Decision::Split(planes),
+            };
+            match d {
+                Decision::Split(pl) => {
+                    let Some(top) = stack.get_mut(sp..sp + 2) else {
+                        break;
+                    };
+                    let next = (level + 1) as u8;
+                    top[0] = (r, a, m, pl, next);
+                    top[1] = (a, l, m, pl, next);
+                    sp += 2;
+                }
+                Decision::Keep => sink.put(l, r, a),
+                Decision::Cull => {}
+            }
+        }
     }
 
     /// Whether view-independent extraction takes [`ViSquare`]: a square grid (`(2^k+1)^2`) of
@@ -1257,6 +1334,20 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let Some(v) = self.view.as_ref() else {
             return self.decide_vi(e, planes);
         };
+        self.decide_view(v, m, (e, z, r), planes, level)
+    }
+
+    /// The view-dependent part of [`Self::decide_at`] for vertex `m` with error `e` (finite),
+    /// local height `z` and radius `r`.
+    #[inline(always)]
+    fn decide_view(
+        &self,
+        v: &ViewData,
+        m: (i64, i64),
+        (e, z, r): (f32, f64, f64),
+        planes: u8,
+        level: u32,
+    ) -> Decision {
         // The vertex's position from its grid index, with per-frame constants (the map's grid
         // index in f64 times the spacing: bit-identical across tiles, see `with_grid_origin`).
         let px = (m.0 + v.ox) as f64 * v.sx;
@@ -1781,6 +1872,9 @@ struct ViSquare<'a, 'o> {
 
 const IDX: u64 = 0xffff_ffff;
 
+/// Entries of the lean walk's stack (at most `levels() + 2 <= 62`).
+const LEAN_STACK: usize = 64;
+
 impl ViSquare<'_, '_> {
     /// The bitmap word holding grid index `i`.
     #[inline(always)]
@@ -2004,6 +2098,63 @@ impl PtSink for RowSink<'_> {
             *o = [idx(a), idx(b), idx(c)];
         }
         self.n += 1;
+    }
+}
+
+impl RowSink<'_> {
+    /// [`PtSink::tri`] for corners packed as `x | y << 32`.
+    #[inline(always)]
+    fn put(&mut self, a: u64, b: u64, c: u64) {
+        let w = self.w as u64;
+        let idx = |p: u64| ((p >> 32) * w + (p & IDX)) as u32;
+        if let Some(o) = self.out.get_mut(self.n) {
+            *o = [idx(a), idx(b), idx(c)];
+        }
+        self.n += 1;
+    }
+}
+
+/// Where [`Refiner::lean_walk`] reads vertex `i` (row-major, at `(x, y)`): its error (finite),
+/// local height and radius, as [`Refiner::decide_at`] reads them; `None` where that splits
+/// without a test (an infinite error, or no storage for the vertex).
+trait Fetch {
+    fn fetch(&self, i: usize, x: u32, y: u32) -> Option<(f32, f64, f64)>;
+}
+
+/// The full layout: `f32` error and radius arrays, heights from the terrain.
+struct FullFetch<'a, T> {
+    err: &'a [f32],
+    rad: &'a [f32],
+    t: &'a T,
+}
+
+impl<T: Terrain> Fetch for FullFetch<'_, T> {
+    #[inline(always)]
+    fn fetch(&self, i: usize, x: u32, y: u32) -> Option<(f32, f64, f64)> {
+        let e = self.err.get(i).copied().unwrap_or(f32::INFINITY);
+        if e == f32::INFINITY {
+            return None;
+        }
+        let z = self.t.local_z(x, y) as f64;
+        let r = self.rad.get(i).copied().unwrap_or(f32::INFINITY) as f64;
+        Some((e, z, r))
+    }
+}
+
+/// Linear records: one 8-byte load.
+struct RecordFetch<'a> {
+    recs: &'a [VertexRecord],
+}
+
+impl Fetch for RecordFetch<'_> {
+    #[inline(always)]
+    fn fetch(&self, i: usize, _x: u32, _y: u32) -> Option<(f32, f64, f64)> {
+        let rec = self.recs.get(i)?;
+        let e = rec.error_value();
+        if e == f32::INFINITY {
+            return None;
+        }
+        Some((e, rec.z as f64, rec.radius_value() as f64))
     }
 }
 
