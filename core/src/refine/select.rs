@@ -619,25 +619,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             out: triangles,
             n: 0,
         };
-        let lean = match (self.view.as_ref(), self.h.errors, self.h.radii()) {
-            (Some(v), ErrorStore::F32(err), Some(rad)) if self.lean_square() => {
-                let f = FullFetch {
-                    err,
-                    rad,
-                    t: self.t,
-                };
-                self.lean_walk(v, &f, &mut sink);
-                true
-            }
-            (Some(v), ErrorStore::Records(recs, super::RecordLayout::Linear), _)
-                if self.lean_square() =>
-            {
-                self.lean_walk(v, &RecordFetch { recs }, &mut sink);
-                true
-            }
-            _ => false,
-        };
-        if !lean {
+        if !self.lean_frame(&mut sink) {
             self.walk_all(&mut sink, false);
         }
         let n = sink.n;
@@ -645,13 +627,32 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         Ok(n)
     }
 
-    /// Whether [`Self::lean_walk`] applies: a square grid whose packed points
-    /// (`x | y << 32`) add without carrying.
-    fn lean_square(&self) -> bool {
-        self.g.is_square() && self.g.side() < 1 << 30
+    /// Runs [`Self::lean_walk`] into `sink` where it applies (a view-dependent frame of a
+    /// square grid whose packed points, `x | y << 32`, add without carrying, on the full layout
+    /// or linear records, whose bit order is row-major) and says whether it did.
+    fn lean_frame<S: LeanSink>(&self, sink: &mut S) -> bool {
+        if !(self.g.is_square() && self.g.side() < 1 << 30) || self.order.hierarchical() {
+            return false;
+        }
+        match (self.view.as_ref(), self.h.errors, self.h.radii()) {
+            (Some(v), ErrorStore::F32(err), Some(rad)) => {
+                let f = FullFetch {
+                    err,
+                    rad,
+                    t: self.t,
+                };
+                self.lean_walk(v, &f, sink);
+                true
+            }
+            (Some(v), ErrorStore::Records(recs, super::RecordLayout::Linear), _) => {
+                self.lean_walk(v, &RecordFetch { recs }, sink);
+                true
+            }
+            _ => false,
+        }
     }
 
-    /// [`Self::walk`] for a view-dependent frame of a square grid into a [`RowSink`]: the same
+    /// [`Self::walk`] for a view-dependent frame of a square grid into a [`LeanSink`]: the same
     /// decisions ([`Self::decide_view`]), the same triangles in the same order, with less state
     /// per triangle. Corners are packed as `x | y << 32` (a hypotenuse's midpoint is half the
     /// sum of its ends: both coordinate sums are even and below `2^31`), the vertex data is
@@ -659,7 +660,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// recursion (the second child below the first; a pop replaces a triangle of level `k` by
     /// two of level `k + 1`, so at most `levels() + 1` entries, and at most one pop per
     /// triangle of the bisection tree).
-    fn lean_walk<F: Fetch>(&self, v: &ViewData, f: &F, sink: &mut RowSink<'_>) {
+    fn lean_walk<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
         let n = u64::from(self.g.side());
         let p = |x: u64, y: u64| x | (y << 32);
         let levels = self.g.levels();
@@ -682,9 +683,14 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             let m = (l + r) >> 1;
             let (x, y) = ((m & IDX) as i64, (m >> 32) as i64);
             let i = y as usize * w + x as usize;
-            let d = match f.fetch(i, x as u32, y as u32) {
-                Some(ezr) => self.decide_view(v, (x, y), ezr, planes, level),
-                None => Decision::Split(planes),
+            // As in `walk`: a vertex already in the mesh splits without a second decision.
+            let d = if sink.seen(i) {
+                Decision::Split(planes)
+            } else {
+                match f.fetch(i, x as u32, y as u32) {
+                    Some(ezr) => self.decide_view(v, (x, y), ezr, planes, level),
+                    None => Decision::Split(planes),
+                }
             };
             match d {
                 Decision::Split(pl) => {
@@ -770,8 +776,11 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             m: &mut m,
             out: &mut *triangles,
             n: 0,
+            w: u64::from(self.g.width()),
         };
-        self.walk_all(&mut sink, false);
+        if !self.lean_frame(&mut sink) {
+            self.walk_all(&mut sink, false);
+        }
         let nt = sink.n;
         let nv = m.prefix_sparse();
         let fits = nt <= triangles.len() && nv <= vertices.len();
@@ -2055,23 +2064,25 @@ struct GridSink<'a, 's, 'o> {
     m: &'a mut Marks<'s>,
     out: &'o mut [[u32; 3]],
     n: usize,
+    /// Grid width (for [`LeanSink`]: row-major bit order).
+    w: u64,
 }
 
-impl PtSink for GridSink<'_, '_, '_> {
+impl GridSink<'_, '_, '_> {
+    /// Whether bit `i` is marked.
     #[inline(always)]
-    fn seen(&self, m: Pt) -> bool {
-        let i = m.1;
+    fn marked(&self, i: usize) -> bool {
         self.m
             .bits
             .get(i >> 6)
             .is_some_and(|b| (b >> (i & 63)) & 1 == 1)
     }
 
+    /// Marks the corners' bits and writes the triangle (while there is room).
     #[inline(always)]
-    fn tri(&mut self, a: Pt, b: Pt, c: Pt) {
+    fn emit(&mut self, corners: [usize; 3]) {
         let mut t = [0u32; 3];
-        for (o, p) in t.iter_mut().zip([a, b, c]) {
-            let i = p.1;
+        for (o, i) in t.iter_mut().zip(corners) {
             self.m.mark(i);
             *o = i as u32;
         }
@@ -2079,6 +2090,18 @@ impl PtSink for GridSink<'_, '_, '_> {
             *o = t;
         }
         self.n += 1;
+    }
+}
+
+impl PtSink for GridSink<'_, '_, '_> {
+    #[inline(always)]
+    fn seen(&self, m: Pt) -> bool {
+        self.marked(m.1)
+    }
+
+    #[inline(always)]
+    fn tri(&mut self, a: Pt, b: Pt, c: Pt) {
+        self.emit([a.1, b.1, c.1]);
     }
 }
 
@@ -2101,8 +2124,19 @@ impl PtSink for RowSink<'_> {
     }
 }
 
-impl RowSink<'_> {
-    /// [`PtSink::tri`] for corners packed as `x | y << 32`.
+/// What [`Refiner::lean_walk`] writes into: [`PtSink`] for corners packed as `x | y << 32`,
+/// with row-major bit indices.
+trait LeanSink {
+    fn put(&mut self, a: u64, b: u64, c: u64);
+
+    /// [`PtSink::seen`] for the vertex of row-major index `i`.
+    #[inline(always)]
+    fn seen(&self, _i: usize) -> bool {
+        false
+    }
+}
+
+impl LeanSink for RowSink<'_> {
     #[inline(always)]
     fn put(&mut self, a: u64, b: u64, c: u64) {
         let w = self.w as u64;
@@ -2111,6 +2145,20 @@ impl RowSink<'_> {
             *o = [idx(a), idx(b), idx(c)];
         }
         self.n += 1;
+    }
+}
+
+impl LeanSink for GridSink<'_, '_, '_> {
+    #[inline(always)]
+    fn seen(&self, i: usize) -> bool {
+        self.marked(i)
+    }
+
+    #[inline(always)]
+    fn put(&mut self, a: u64, b: u64, c: u64) {
+        let w = self.w;
+        let i = |p: u64| ((p >> 32) * w + (p & IDX)) as usize;
+        self.emit([i(a), i(b), i(c)]);
     }
 }
 
@@ -2257,6 +2305,85 @@ mod cull_tests {
         assert!(
             culled > 100 && dropped > 100 && kept > 100,
             "{culled} {dropped} {kept}"
+        );
+    }
+
+    /// Row-major corner indices of every triangle, as the general walk emits them.
+    struct Rows(std::vec::Vec<[u32; 3]>, i64);
+
+    impl PtSink for Rows {
+        fn tri(&mut self, a: Pt, b: Pt, c: Pt) {
+            let w = self.1;
+            let i = |p: Pt| (p.0 .1 * w + p.0 .0) as u32;
+            self.0.push([i(a), i(b), i(c)]);
+        }
+    }
+
+    /// The lean walk (square grids, full layout and linear records) against the general walk:
+    /// the same triangles in the same order, through `grid_triangles` and through `triangles`.
+    #[test]
+    fn lean_walk_matches_the_general_walk_triangle_for_triangle() {
+        use crate::refine::{pack_records, records_len, RecordLayout, VertexRecord};
+        let (mut frames, mut total) = (0, 0);
+        for w in [17u32, 33, 65] {
+            let n = (w * w) as usize;
+            let s: std::vec::Vec<f32> = (0..n)
+                .map(|i| ((i * 37) % 23) as f32 * 0.9 + ((i / w as usize) as f32 * 0.3).sin() * 9.0)
+                .collect();
+            let hf = Heightfield::new(&s, w, w).unwrap();
+            let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+            let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+            let mut rl = vec![VertexRecord::default(); records_len(w, w, RecordLayout::Linear)];
+            let lin = pack_records(&full, &hf, RecordLayout::Linear, &mut rl).unwrap();
+            let f = w as f32;
+            for (eye, target, tau) in [
+                (Vec3::new(-4.0, 3.0, 30.0), Vec3::new(10.0, 8.0, 0.0), 0.5),
+                (
+                    Vec3::new(f / 2.0, f / 2.0, 2.0),
+                    Vec3::new(f, f / 2.0, 0.0),
+                    2.0,
+                ),
+                (
+                    Vec3::new(f / 3.0, -5.0, 8.0),
+                    Vec3::new(f / 3.0, f, 4.0),
+                    1.0,
+                ),
+            ] {
+                let cam = Camera::new(eye, target, 50.0, 320, 200).unwrap();
+                for view in [
+                    View::new(&cam, tau).unwrap(),
+                    View::new(&cam, tau).unwrap().with_lazy_levels(0),
+                    View::new(&cam, tau).unwrap().with_culling(false),
+                ] {
+                    for hier in [&full, &lin] {
+                        let rf = Refiner::new(hier, &hf, Criterion::View(view)).unwrap();
+                        let mut general = Rows(vec![], i64::from(w));
+                        rf.walk_all(&mut general, false);
+                        let mut lean = vec![[0u32; 3]; general.0.len() + 1];
+                        let k = rf.grid_triangles(&mut lean).unwrap();
+                        assert_eq!(&lean[..k], &general.0[..], "{w} {eye}");
+                        // `triangles` (marks and ranks) through the lean walk as well.
+                        let mut sc = vec![0u64; crate::refine::scratch_len(w, w)];
+                        let mut v = vec![[0.0f32; 3]; n];
+                        let mut t = vec![[0u32; 3]; k];
+                        let c = rf.triangles(&mut sc, &mut v, &mut t).unwrap();
+                        assert_eq!(c.triangles, k);
+                        for (lt, gt) in t.iter().zip(&general.0) {
+                            for (&li, &gi) in lt.iter().zip(gt) {
+                                let p = v[li as usize];
+                                assert_eq!([p[0], p[1]], [(gi % w) as f32, (gi / w) as f32]);
+                            }
+                        }
+                        frames += 1;
+                        total += k;
+                    }
+                }
+            }
+        }
+        assert_eq!(frames, 3 * 3 * 3 * 2);
+        assert!(
+            total > 20_000,
+            "{total} triangles: the comparison needs real frames"
         );
     }
 }
