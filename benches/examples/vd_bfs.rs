@@ -173,19 +173,23 @@ impl Frame<'_> {
             let (x, y) = xy(m);
             let i = (y * self.v.w + x) as usize;
             let [e, rr, pz, _] = self.rec[i];
-            let (px, py) = (x as f32 * self.v.sx, y as f32 * self.v.sy);
+            let (px, py) = (x as f32 * self.v.f32s.sx, y as f32 * self.v.f32s.sy);
             let mut planes = t.planes;
             let mut culled = false;
             if CULL {
-                for (k, p) in self.v.planes.iter().enumerate() {
+                for (k, p) in self.v.f32s.planes.iter().enumerate() {
                     let on = (t.planes >> k) & 1 != 0;
                     let c = p[0] * px + p[1] * py + p[2] * pz + p[3];
                     culled |= on & (c + rr < 0.0);
                     planes &= !((u32::from(on & (c - rr > 0.0))) << k);
                 }
             }
-            let (dx, dy, dz) = (self.v.eye[0] - px, self.v.eye[1] - py, self.v.eye[2] - pz);
-            let reach = e * self.v.k + rr;
+            let (dx, dy, dz) = (
+                self.v.f32s.eye[0] - px,
+                self.v.f32s.eye[1] - py,
+                self.v.f32s.eye[2] - pz,
+            );
+            let reach = e * self.v.f32s.k + rr;
             let split = !culled & (e > 0.0) & (reach * reach > dx * dx + dy * dy + dz * dz);
             let emit = !culled & !split;
             next[nn] = Tri {

@@ -47,7 +47,11 @@ impl Lean<'_> {
         if o.stamp[i] != o.frame {
             o.stamp[i] = o.frame;
             o.index[i] = o.nv as u32;
-            o.verts[o.nv] = [p.0 as f32 * self.v.sx, p.1 as f32 * self.v.sy, self.z[i]];
+            o.verts[o.nv] = [
+                p.0 as f32 * self.v.f32s.sx,
+                p.1 as f32 * self.v.f32s.sy,
+                self.z[i],
+            ];
             o.nv += 1;
         }
         o.index[i]

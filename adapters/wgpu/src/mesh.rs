@@ -408,9 +408,9 @@ impl MeshPass {
         );
     }
 
-    /// Uploads every sample of `terrain` as a vertex, index `y * width + x`, at the world
-    /// position [`relief_core::refine::Refiner::triangles`] gives a vertex (`x dx`, `y dy`,
-    /// local height plus `z_offset`, bit for bit): the vertex buffer that
+    /// Uploads every sample of `terrain` as a vertex, index `y * width + x`, at its
+    /// [`relief_core::Terrain::position`] (the position [`relief_core::refine::Refiner::triangles`]
+    /// gives a vertex, bit for bit): the vertex buffer that
     /// [`MeshPass::upload_grid_triangles`] indexes. Upload it once per terrain (and again after
     /// an edit); each frame then writes only its indices.
     ///
@@ -430,17 +430,11 @@ impl MeshPass {
         queue: &wgpu::Queue,
         terrain: &T,
     ) {
-        let s = terrain.scale();
         let (w, h) = (terrain.width(), terrain.height());
         let vb: Vec<[f32; 3]> = (0..h)
             .flat_map(|y| (0..w).map(move |x| (x, y)))
-            .map(|(x, y)| {
-                [
-                    x as f32 * s.dx,
-                    y as f32 * s.dy,
-                    terrain.local_z(x, y) + s.z_offset,
-                ]
-            })
+            .filter_map(|(x, y)| terrain.position(x, y))
+            .map(|p| p.to_array())
             .collect();
         let vb: &[u8] = bytemuck::cast_slice(&vb);
         grow(

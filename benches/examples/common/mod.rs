@@ -250,9 +250,90 @@ pub struct LeanInputs {
     pub planes: [[f32; 4]; 6],
 }
 
-/// A lean yardstick's frame constants (`vd_lean`, `vd_bfs`): a square `2^k + 1` grid of
-/// width `w` with `levels` levels, culling above `lazy_from`, spacing `sx`, `sy`, the eye in
-/// local heights, `k = kappa / tau` and the frustum planes of [`LeanInputs`].
+/// The scalar type of a lean decision: `f32` (the yardsticks' own) or `f64` (as the library
+/// decides).
+pub trait Real:
+    Copy
+    + PartialOrd
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + From<f32>
+{
+    /// `x` exactly (grid coordinates below `2^24`).
+    fn of_u32(x: u32) -> Self;
+}
+
+impl Real for f32 {
+    fn of_u32(x: u32) -> f32 {
+        x as f32
+    }
+}
+
+impl Real for f64 {
+    fn of_u32(x: u32) -> f64 {
+        f64::from(x)
+    }
+}
+
+/// A lean decision's per-frame constants in one precision: spacing `sx`, `sy`, the eye in local
+/// heights, `k = kappa / tau` and the frustum planes of [`LeanInputs`].
+pub struct Consts<R> {
+    /// Spacing in x.
+    pub sx: R,
+    /// Spacing in y.
+    pub sy: R,
+    /// Eye, local heights.
+    pub eye: [R; 3],
+    /// `kappa / tau`.
+    pub k: R,
+    /// Frustum planes.
+    pub planes: [[R; 4]; 6],
+}
+
+impl<R: Real> Consts<R> {
+    /// The decision for the split vertex at `(x, y)` with error `e`, radius `r` and local
+    /// height `z` (SOAR's sphere test; frustum culling with the active-plane mask `planes`
+    /// unless `lazy`): `None` if its sphere is outside an active plane (culled), else whether
+    /// it splits and the planes still active.
+    #[inline(always)]
+    pub fn decide(
+        &self,
+        (x, y, lazy): (u32, u32, bool),
+        (e, r, z): (f32, f32, f32),
+        planes: u32,
+    ) -> Option<(bool, u32)> {
+        let zero = R::from(0.0);
+        let (px, py, pz) = (R::of_u32(x) * self.sx, R::of_u32(y) * self.sy, R::from(z));
+        let (e, r) = (R::from(e), R::from(r));
+        let mut planes = planes;
+        if planes != 0 && !lazy {
+            let mut rest = planes;
+            while rest != 0 {
+                let i = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                let q = self.planes[i];
+                let c = q[0] * px + q[1] * py + q[2] * pz + q[3];
+                if c + r < zero {
+                    return None;
+                }
+                if c - r > zero {
+                    planes &= !(1 << i);
+                }
+            }
+        }
+        let (dx, dy, dz) = (self.eye[0] - px, self.eye[1] - py, self.eye[2] - pz);
+        let reach = e * self.k + r;
+        Some((
+            e > zero && reach * reach > dx * dx + dy * dy + dz * dz,
+            planes,
+        ))
+    }
+}
+
+/// A lean yardstick's frame (`vd_lean`, `vd_bfs`): a square `2^k + 1` grid of width `w` with
+/// `levels` levels, culling above `lazy_from`, and the decision's constants in `f32` and in
+/// `f64`.
 pub struct LeanView {
     /// Grid width.
     pub w: u32,
@@ -260,18 +341,10 @@ pub struct LeanView {
     pub levels: u32,
     /// First level without culling (lazy culling).
     pub lazy_from: u32,
-    /// Spacing in x.
-    pub sx: f32,
-    /// Spacing in y.
-    pub sy: f32,
-    /// Eye, local heights.
-    pub eye: [f32; 3],
-    /// `kappa / tau`.
-    pub k: f32,
-    /// Frustum planes.
-    pub planes: [[f32; 4]; 6],
-    /// The same planes, eye and `k` in `f64`, for [`LeanView::decide64`].
-    pub f64s: ([[f64; 4]; 6], [f64; 3], f64),
+    /// The constants in `f32`.
+    pub f32s: Consts<f32>,
+    /// The same in `f64`, converted once per frame as the library converts them.
+    pub f64s: Consts<f64>,
 }
 
 impl LeanView {
@@ -284,101 +357,54 @@ impl LeanView {
         planes: [[f32; 4]; 6],
     ) -> LeanView {
         let levels = 2 * (dem.width - 1).trailing_zeros();
+        let (sx, sy, off) = (dem.scale.dx, dem.scale.dy, dem.scale.z_offset);
         LeanView {
             w: dem.width,
             levels,
             lazy_from: levels - 4,
-            sx: dem.scale.dx,
-            sy: dem.scale.dy,
-            eye: [cam.eye.x, cam.eye.y, cam.eye.z - dem.scale.z_offset],
-            k: cam.kappa() / tau,
-            planes,
-            f64s: (
-                planes.map(|q| q.map(f64::from)),
-                [
+            f32s: Consts {
+                sx,
+                sy,
+                eye: [cam.eye.x, cam.eye.y, cam.eye.z - off],
+                k: cam.kappa() / tau,
+                planes,
+            },
+            f64s: Consts {
+                sx: f64::from(sx),
+                sy: f64::from(sy),
+                eye: [
                     f64::from(cam.eye.x),
                     f64::from(cam.eye.y),
-                    f64::from(cam.eye.z) - f64::from(dem.scale.z_offset),
+                    f64::from(cam.eye.z) - f64::from(off),
                 ],
-                f64::from(cam.kappa()) / f64::from(tau),
-            ),
+                k: f64::from(cam.kappa()) / f64::from(tau),
+                planes: planes.map(|q| q.map(f64::from)),
+            },
         }
     }
 
-    /// The decision for the split vertex at `(x, y)` on `level` with error `e`, radius `r` and
-    /// local height `z` (SOAR's sphere test; frustum culling with the active-plane mask
-    /// `planes` above the lazy levels): `None` if its sphere is outside an active plane
-    /// (culled), else whether it splits and the planes still active.
+    /// [`Consts::decide`] in `f32` for the split vertex at `(x, y)` on `level`.
     #[inline(always)]
     pub fn decide(
         &self,
         (x, y, level): (u32, u32, u32),
-        (e, r, z): (f32, f32, f32),
+        erz: (f32, f32, f32),
         planes: u32,
     ) -> Option<(bool, u32)> {
-        let (px, py, pz) = (x as f32 * self.sx, y as f32 * self.sy, z);
-        let mut planes = planes;
-        if planes != 0 && level < self.lazy_from {
-            let mut rest = planes;
-            while rest != 0 {
-                let i = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                let q = self.planes[i];
-                let c = q[0] * px + q[1] * py + q[2] * pz + q[3];
-                if c + r < 0.0 {
-                    return None;
-                }
-                if c - r > 0.0 {
-                    planes &= !(1 << i);
-                }
-            }
-        }
-        let (dx, dy, dz) = (self.eye[0] - px, self.eye[1] - py, self.eye[2] - pz);
-        let reach = e * self.k + r;
-        Some((
-            e > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz,
-            planes,
-        ))
+        self.f32s
+            .decide((x, y, level >= self.lazy_from), erz, planes)
     }
 
-    /// [`LeanView::decide`] in `f64`, as the library decides: positions `x dx` from the grid
-    /// index, planes, eye and `k` in `f64`.
+    /// The same in `f64`, as the library decides.
     #[inline(always)]
     pub fn decide64(
         &self,
         (x, y, level): (u32, u32, u32),
-        (e, r, z): (f32, f32, f32),
+        erz: (f32, f32, f32),
         planes: u32,
     ) -> Option<(bool, u32)> {
-        let (pl, eye, k) = &self.f64s;
-        let (px, py) = (
-            f64::from(x) * f64::from(self.sx),
-            f64::from(y) * f64::from(self.sy),
-        );
-        let (pz, r) = (f64::from(z), f64::from(r));
-        let mut planes = planes;
-        if planes != 0 && level < self.lazy_from {
-            let mut rest = planes;
-            while rest != 0 {
-                let i = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                let q = pl[i];
-                let c = q[0] * px + q[1] * py + q[2] * pz + q[3];
-                if c + r < 0.0 {
-                    return None;
-                }
-                if c - r > 0.0 {
-                    planes &= !(1 << i);
-                }
-            }
-        }
-        let (dx, dy, dz) = (eye[0] - px, eye[1] - py, eye[2] - pz);
-        let e = f64::from(e);
-        let reach = e * k + r;
-        Some((
-            e > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz,
-            planes,
-        ))
+        self.f64s
+            .decide((x, y, level >= self.lazy_from), erz, planes)
     }
 }
 

@@ -629,9 +629,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
     /// Runs [`Self::lean_walk`] into `sink` where it applies (a view-dependent frame of a
     /// square grid whose packed points, `x | y << 32`, add without carrying, on the full layout
-    /// or linear records, whose bit order is row-major) and says whether it did.
+    /// or linear records: layouts whose bit order is row-major, see [`Refiner::new`]) and says
+    /// whether it did.
     fn lean_frame<S: LeanSink>(&self, sink: &mut S) -> bool {
-        if !(self.g.is_square() && self.g.side() < 1 << 30) || self.order.hierarchical() {
+        if !(self.g.is_square() && self.g.side() < 1 << 30) {
             return false;
         }
         match (self.view.as_ref(), self.h.errors, self.h.radii()) {
@@ -658,8 +659,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// sum of its ends: both coordinate sums are even and below `2^31`), the vertex data is
     /// read through `F` (one instance per layout), and an explicit stack replaces the
     /// recursion (the second child below the first; a pop replaces a triangle of level `k` by
-    /// two of level `k + 1`, so at most `levels() + 1` entries, and at most one pop per
-    /// triangle of the bisection tree).
+    /// two of level `k + 1`, so with the two roots at most `levels() + 2` entries, and at most
+    /// one pop per triangle of the bisection tree).
     fn lean_walk<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
         let n = u64::from(self.g.side());
         let p = |x: u64, y: u64| x | (y << 32);
@@ -2113,14 +2114,22 @@ struct RowSink<'o> {
     n: usize,
 }
 
+impl RowSink<'_> {
+    /// Writes one triangle (while there is room) and counts it.
+    #[inline(always)]
+    fn push(&mut self, t: [u32; 3]) {
+        if let Some(o) = self.out.get_mut(self.n) {
+            *o = t;
+        }
+        self.n += 1;
+    }
+}
+
 impl PtSink for RowSink<'_> {
     #[inline(always)]
     fn tri(&mut self, a: Pt, b: Pt, c: Pt) {
         let idx = |p: Pt| (p.0 .1 * self.w + p.0 .0) as u32;
-        if let Some(o) = self.out.get_mut(self.n) {
-            *o = [idx(a), idx(b), idx(c)];
-        }
-        self.n += 1;
+        self.push([idx(a), idx(b), idx(c)]);
     }
 }
 
@@ -2141,10 +2150,7 @@ impl LeanSink for RowSink<'_> {
     fn put(&mut self, a: u64, b: u64, c: u64) {
         let w = self.w as u64;
         let idx = |p: u64| ((p >> 32) * w + (p & IDX)) as u32;
-        if let Some(o) = self.out.get_mut(self.n) {
-            *o = [idx(a), idx(b), idx(c)];
-        }
-        self.n += 1;
+        self.push([idx(a), idx(b), idx(c)]);
     }
 }
 
@@ -2308,17 +2314,6 @@ mod cull_tests {
         );
     }
 
-    /// Row-major corner indices of every triangle, as the general walk emits them.
-    struct Rows(std::vec::Vec<[u32; 3]>, i64);
-
-    impl PtSink for Rows {
-        fn tri(&mut self, a: Pt, b: Pt, c: Pt) {
-            let w = self.1;
-            let i = |p: Pt| (p.0 .1 * w + p.0 .0) as u32;
-            self.0.push([i(a), i(b), i(c)]);
-        }
-    }
-
     /// The lean walk (square grids, full layout and linear records) against the general walk:
     /// the same triangles in the same order, through `grid_triangles` and through `triangles`.
     #[test]
@@ -2357,18 +2352,26 @@ mod cull_tests {
                 ] {
                     for hier in [&full, &lin] {
                         let rf = Refiner::new(hier, &hf, Criterion::View(view)).unwrap();
-                        let mut general = Rows(vec![], i64::from(w));
-                        rf.walk_all(&mut general, false);
-                        let mut lean = vec![[0u32; 3]; general.0.len() + 1];
+                        // The general walk into the row-major sink `grid_triangles` uses.
+                        let mut buf = vec![[0u32; 3]; crate::refine::triangle_bound(w, w)];
+                        let mut rows = RowSink {
+                            w: i64::from(w),
+                            out: &mut buf,
+                            n: 0,
+                        };
+                        rf.walk_all(&mut rows, false);
+                        let count = rows.n;
+                        let general = &buf[..count];
+                        let mut lean = vec![[0u32; 3]; general.len() + 1];
                         let k = rf.grid_triangles(&mut lean).unwrap();
-                        assert_eq!(&lean[..k], &general.0[..], "{w} {eye}");
+                        assert_eq!(&lean[..k], general, "{w} {eye}");
                         // `triangles` (marks and ranks) through the lean walk as well.
                         let mut sc = vec![0u64; crate::refine::scratch_len(w, w)];
                         let mut v = vec![[0.0f32; 3]; n];
                         let mut t = vec![[0u32; 3]; k];
                         let c = rf.triangles(&mut sc, &mut v, &mut t).unwrap();
                         assert_eq!(c.triangles, k);
-                        for (lt, gt) in t.iter().zip(&general.0) {
+                        for (lt, gt) in t.iter().zip(general) {
                             for (&li, &gi) in lt.iter().zip(gt) {
                                 let p = v[li as usize];
                                 assert_eq!([p[0], p[1]], [(gi % w) as f32, (gi / w) as f32]);
