@@ -7,8 +7,11 @@
 //! - *depth first*: `vd_lean`'s recursion (same decisions: SOAR's sphere test, frustum culling
 //!   with the active-plane mask, lazy below the last 4 levels, `f32`, a square `2^k + 1` grid,
 //!   each vertex's error, radius and height in one 16-byte row-major record);
-//! - *stack*: the same with an explicit stack, and again with the decision in `f64` as the
-//!   library makes it (positions from the grid index, planes, eye and `kappa / tau` in `f64`);
+//! - *stack*: the same with an explicit stack, again with the decision in `f64` as the
+//!   library makes it (positions from the grid index, planes, eye and `kappa / tau` in `f64`),
+//!   and again reading the library's own linear 8-byte records (`pack_records`; their
+//!   bfloat16 errors and radii are rounded up, so the triangles are those of the records
+//!   layout);
 //! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
 //!   records, and `Refiner::triangles` (compact vertices, renumbered) for reference.
 //!
@@ -41,8 +44,16 @@ struct Tri {
 struct Frame<'a> {
     /// Per vertex, row-major: error, radius, local height (one cache line per decision).
     rec: &'a [[f32; 4]],
+    /// The library's own linear 8-byte records (`pack_records`), for the `LIB` variant.
+    lib: &'a [VertexRecord],
     v: common::LeanView,
 }
+
+/// Where a stack walk reads and decides: the 16-byte records in `f32`, the same in `f64`, or
+/// the library's 8-byte linear records in `f32`.
+const OWN_F32: u8 = 0;
+const OWN_F64: u8 = 1;
+const LIB: u8 = 2;
 
 #[inline(always)]
 fn xy(p: u32) -> (u32, u32) {
@@ -60,15 +71,22 @@ impl Frame<'_> {
     /// outside an active plane (culled), else whether it splits and the planes still active.
     #[inline(always)]
     fn decide(&self, m: u32, planes: u32, level: u32) -> Option<(bool, u32)> {
-        self.decide_in::<false>(m, planes, level)
+        self.decide_in::<OWN_F32>(m, planes, level)
     }
 
-    /// [`Frame::decide`] in `f32` or (`F64`) in `f64` ([`common::LeanView::decide64`]).
+    /// [`Frame::decide`] with the data and precision of `SRC` ([`OWN_F32`], [`OWN_F64`]:
+    /// [`common::LeanView::decide64`], [`LIB`]).
     #[inline(always)]
-    fn decide_in<const F64: bool>(&self, m: u32, planes: u32, level: u32) -> Option<(bool, u32)> {
-        let [e, rr, pz, _] = self.rec[self.index(m) as usize];
+    fn decide_in<const SRC: u8>(&self, m: u32, planes: u32, level: u32) -> Option<(bool, u32)> {
         let (x, y) = xy(m);
-        if F64 {
+        let i = self.index(m) as usize;
+        if SRC == LIB {
+            let r = self.lib[i];
+            let erz = (r.error_value(), r.radius_value(), r.z);
+            return self.v.decide((x, y, level), erz, planes);
+        }
+        let [e, rr, pz, _] = self.rec[i];
+        if SRC == OWN_F64 {
             self.v.decide64((x, y, level), (e, rr, pz), planes)
         } else {
             self.v.decide((x, y, level), (e, rr, pz), planes)
@@ -109,7 +127,7 @@ impl Frame<'_> {
 
     /// The depth-first walk with an explicit stack (the second child below the first, so the
     /// output order is the recursion's), into `out`; returns the triangle count.
-    fn dfs_stack<const F64: bool>(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
+    fn dfs_stack<const SRC: u8>(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
         let mut stack = [(Tri::default(), 0u32); 64];
         stack[0] = (roots[1], 0);
         stack[1] = (roots[0], 0);
@@ -125,7 +143,7 @@ impl Frame<'_> {
                 continue;
             }
             let m = (t.l + t.r) >> 1;
-            let Some((split, planes)) = self.decide_in::<F64>(m, t.planes, level) else {
+            let Some((split, planes)) = self.decide_in::<SRC>(m, t.planes, level) else {
                 continue;
             };
             if split {
@@ -261,6 +279,7 @@ fn main() {
     let mut scratch = vec![0u64; relief_core::refine::scratch_len(w, h)];
     let mut out2 = vec![[0u32; 3]; bound];
     let mut out64 = vec![[0u32; 3]; bound + 1];
+    let mut out_lib = vec![[0u32; 3]; bound + 1];
     let mut tris_g = [
         vec![[0u32; 3]; bound],
         vec![[0u32; 3]; bound],
@@ -288,6 +307,7 @@ fn main() {
     for tau in [0.5f32, 1.0, 4.0] {
         let f = Frame {
             rec: &rec,
+            lib: lin_h.records().unwrap().0,
             v: common::LeanView::new(&dem, &cam, tau, planes),
         };
         // Same triangles as the depth-first walk (as a multiset).
@@ -315,7 +335,7 @@ fn main() {
             &reference_in_order[..],
             "grid_triangles differs"
         );
-        let ns = f.dfs_stack::<false>(roots, &mut out);
+        let ns = f.dfs_stack::<OWN_F32>(roots, &mut out);
         let mut got = out[..ns].to_vec();
         got.sort_unstable();
         assert_eq!(got, reference, "stack and recursive triangles differ");
@@ -337,10 +357,14 @@ fn main() {
                     black_box(&dfs_out).len()
                 }),
             ),
-            ("stack", Box::new(|| f.dfs_stack::<false>(roots, out2))),
+            ("stack", Box::new(|| f.dfs_stack::<OWN_F32>(roots, out2))),
             (
                 "stack, f64 decisions",
-                Box::new(|| f.dfs_stack::<true>(roots, &mut out64)),
+                Box::new(|| f.dfs_stack::<OWN_F64>(roots, &mut out64)),
+            ),
+            (
+                "stack, library records",
+                Box::new(|| f.dfs_stack::<LIB>(roots, &mut out_lib)),
             ),
             (
                 "grid_triangles, full",
