@@ -18,7 +18,8 @@
 //! The first three give the same triangles (asserted as multisets), `grid_triangles` on the
 //! full layout gives the depth-first walk's triangles in its order (asserted).
 //!
-//! `cargo run --release -p relief-benches --example vd_bfs` (`RUNS=n`)
+//! `cargo run --release -p relief-benches --example vd_bfs` (`RUNS=n`; `ONLY=text` runs only
+//! the variants whose name contains `text`)
 
 use relief_core::refine::{
     hierarchy_len, pack_records, preprocess, records_len, triangle_bound, Criterion, RecordLayout,
@@ -383,6 +384,10 @@ fn main() {
                 Box::new(|| r.triangles(sc, vs, ts).unwrap().triangles),
             ),
         ];
+        // `ONLY=text`: just the variants whose name contains it (for instruction counts).
+        if let Ok(only) = std::env::var("ONLY") {
+            variants.retain(|(name, _)| name.contains(only.as_str()));
+        }
         // Cold: the variants take turns, so each run starts after the others have filled the
         // caches with their own data (as one refinement per frame between other work would).
         // Warm: `runs` runs of one variant in a row.

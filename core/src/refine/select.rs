@@ -287,7 +287,9 @@ pub(crate) struct ViewData {
     kappa: f64,
     tau: f64,
     kappa_over_tau: f64,
-    planes: [[f64; 4]; 6],
+    /// The six frustum planes, then two zero entries, so that any bit index of a `u8` plane
+    /// mask (`& 7`) indexes the array without a bounds check (masks have only the low six bits).
+    planes: [[f64; 4]; 8],
     pub(crate) mask: u8,
     lazy_from: u32,
     z_lo: f64,
@@ -627,12 +629,16 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         Ok(n)
     }
 
-    /// Runs [`Self::lean_walk`] into `sink` where it applies (a view-dependent frame of a
-    /// square grid whose packed points, `x | y << 32`, add without carrying, on the full layout
-    /// or linear records: layouts whose bit order is row-major, see [`Refiner::new`]) and says
-    /// whether it did.
+    /// Runs [`Self::lean_walk`] into `sink` where it applies (a view-dependent frame with
+    /// `tau > 0` of a square grid whose packed points, `x | y << 32`, add without carrying, on
+    /// the full layout or linear records: layouts whose bit order is row-major, see
+    /// [`Refiner::new`], and which have spheres) and says whether it did.
     fn lean_frame<S: LeanSink>(&self, sink: &mut S) -> bool {
         if !(self.g.is_square() && self.g.side() < 1 << 30) {
+            return false;
+        }
+        // Both layouts below have spheres; `decide_view` is told so, and that `tau > 0`.
+        if !self.view.as_ref().is_some_and(|v| v.spheres && v.tau > 0.0) {
             return false;
         }
         match (self.view.as_ref(), self.h.errors, self.h.radii()) {
@@ -689,7 +695,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 Decision::Split(planes)
             } else {
                 match f.fetch(i, x as u32, y as u32) {
-                    Some(ezr) => self.decide_view(v, (x, y), ezr, planes, level),
+                    Some(ezr) => self.decide_view(v, true, (x, y), ezr, planes, level),
                     None => Decision::Split(planes),
                 }
             };
@@ -1344,15 +1350,18 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let Some(v) = self.view.as_ref() else {
             return self.decide_vi(e, planes);
         };
-        self.decide_view(v, m, (e, z, r), planes, level)
+        self.decide_view(v, false, m, (e, z, r), planes, level)
     }
 
     /// The view-dependent part of [`Self::decide_at`] for vertex `m` with error `e` (finite),
-    /// local height `z` and radius `r`.
+    /// local height `z` and radius `r`. `sphere_tau`: the caller knows that the hierarchy has
+    /// spheres and that `tau > 0` (a constant `true` folds those tests away where this is
+    /// inlined; `false` tests them).
     #[inline(always)]
     fn decide_view(
         &self,
         v: &ViewData,
+        sphere_tau: bool,
         m: (i64, i64),
         (e, z, r): (f32, f64, f64),
         planes: u8,
@@ -1362,17 +1371,18 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         // index in f64 times the spacing: bit-identical across tiles, see `with_grid_origin`).
         let px = (m.0 + v.ox) as f64 * v.sx;
         let py = (m.1 + v.oy) as f64 * v.sy;
+        let spheres = sphere_tau || v.spheres;
         let mut planes = planes;
         if planes != 0 && level < v.lazy_from {
-            match cull_at(v, px, py, z, r, planes) {
+            match cull_at(v, spheres, px, py, z, r, planes) {
                 Some(p) => planes = p,
                 None => return Decision::Cull,
             }
         }
         let ef = e as f64;
-        let active = if v.spheres {
+        let active = if spheres {
             // SOAR's form without a square root: e kappa / tau + r > |eye - p|.
-            if v.tau > 0.0 {
+            if sphere_tau || v.tau > 0.0 {
                 let (dx, dy, dz) = (v.eye[0] - px, v.eye[1] - py, v.eye[2] - z);
                 let reach = ef * v.kappa_over_tau + r;
                 ef > 0.0 && reach * reach > dx * dx + dy * dy + dz * dz
@@ -1420,19 +1430,26 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
 /// Tests the volume at `(px, py, z)` (local) with radius `r` against the active planes of
 /// `planes` only (set bits, in plane order): `None` if outside one, else the planes the volume
-/// still crosses.
+/// still crosses. `spheres`: whether the volume is a sphere (`v.spheres`, passed so that a
+/// caller that knows it folds the test away).
 #[inline(always)]
-fn cull_at(v: &ViewData, px: f64, py: f64, z: f64, r: f64, planes: u8) -> Option<u8> {
+fn cull_at(
+    v: &ViewData,
+    spheres: bool,
+    px: f64,
+    py: f64,
+    z: f64,
+    r: f64,
+    planes: u8,
+) -> Option<u8> {
     let mut out = planes;
     let mut rest = planes;
     while rest != 0 {
         // At most 6 iterations: one per set bit of a 6-plane mask.
         let k = rest.trailing_zeros();
         rest &= rest - 1;
-        let Some(p) = v.planes.get(k as usize) else {
-            break;
-        };
-        let (lo, hi) = if v.spheres {
+        let p = v.planes[k as usize & 7];
+        let (lo, hi) = if spheres {
             let c = p[0] * px + p[1] * py + p[2] * z + p[3];
             (c - r, c + r)
         } else {
@@ -1457,7 +1474,7 @@ fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Err
     let far_given = v.far.is_some();
     let far = v.far.unwrap_or(v.near * 1e6);
     let planes4: [Vec4; 6] = v.camera.frustum_planes(v.near, far)?;
-    let mut planes = [[0.0f64; 4]; 6];
+    let mut planes = [[0.0f64; 4]; 8];
     for (o, p) in planes.iter_mut().zip(planes4.iter()) {
         // n . (x, y, z_local + off) + d = n . (x, y, z_local) + (d + n.z off)
         *o = [
@@ -2298,7 +2315,7 @@ mod cull_tests {
                 let (px, py) = (next() * 60.0 - 20.0, next() * 60.0 - 20.0);
                 let (z, rad) = (next() * 80.0 - 20.0, next() * 6.0);
                 let planes = (next() * 64.0) as u8 & 0b11_1111;
-                let got = cull_at(&v, px, py, z, rad, planes);
+                let got = cull_at(&v, v.spheres, px, py, z, rad, planes);
                 assert_eq!(got, reference(&v, px, py, z, rad, planes));
                 match got {
                     None => culled += 1,
