@@ -349,17 +349,23 @@ pub fn run(a: &MeshArgs) -> CliResult {
     let refiner = Refiner::new(&hier, &hf, criterion)?;
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let t1 = Instant::now();
-    // One pass into bound-sized buffers (zeroed lazily by the allocator: only the pages the
-    // mesh fills are touched), then cut to the counts. (Huge pages for these buffers were tried:
-    // with the kernel's `defrag = madvise` each 2 MiB fault may compact memory, and the pass
-    // took 1-6x longer.)
-    let fresh = || {
-        (
-            vec![[0.0f32; 3]; vertex_bound(w, h)],
-            vec![[0u32; 3]; triangle_bound(w, h)],
-        )
+    // Fresh output buffers, zeroed by the allocator. View-independent: sized by `count` first
+    // (one pass over the errors, about 0.5 ms on a 1025^2 grid), as martini's getMesh counts
+    // before it allocates. View-dependent: bound-sized, since counting would be a second
+    // traversal, then cut to the counts; only the pages the mesh fills are touched. (Huge pages
+    // for these buffers were tried: with the kernel's `defrag = madvise` each 2 MiB fault may
+    // compact memory, and the pass took 1-6x longer.)
+    let view_independent = criterion_kind == "view-independent";
+    let sizes = |scratch: &mut [u64]| -> CliResult<(usize, usize)> {
+        Ok(if view_independent {
+            let c = refiner.count(scratch)?;
+            (c.vertices, c.triangles)
+        } else {
+            (vertex_bound(w, h), triangle_bound(w, h))
+        })
     };
-    let (mut vertices, mut triangles) = fresh();
+    let fresh = |(nv, nt): (usize, usize)| (vec![[0.0f32; 3]; nv], vec![[0u32; 3]; nt]);
+    let (mut vertices, mut triangles) = fresh(sizes(&mut scratch)?);
     let counts = extract(&refiner, &mut scratch, &mut vertices, &mut triangles)?;
     let refine_ms = t1.elapsed().as_secs_f64() * 1e3;
     // A library user refines every frame into the same caller buffers: the same extraction
@@ -373,13 +379,15 @@ pub fn run(a: &MeshArgs) -> CliResult {
     }
     // The peers' protocol (martini's getMesh and pymartini's get_mesh, best of REPS calls in one
     // process, each allocating its output): fresh buffers on every call, fastest of 3 after the
-    // first call above. After a call frees its buffers the allocator hands that memory to the
-    // next call (glibc raises its mmap threshold to the freed size, up to 32 MiB), so these
-    // calls mostly skip the first-touch page faults that refine_ms pays.
+    // first call above. glibc raises its mmap threshold to the size of a freed mapping (up to
+    // 32 MiB), so a later allocation below that size comes from the heap the previous call
+    // freed and skips the first-touch page faults that refine_ms pays (an allocation at or
+    // above it is mapped afresh: the bound-sized triangle buffer of a 1025^2 grid, 25 MB, was,
+    // and paid them on every call).
     let mut refine_fresh_repeat_ms = f64::INFINITY;
     for _ in 0..3 {
         let t = Instant::now();
-        let (mut v, mut tr) = fresh();
+        let (mut v, mut tr) = fresh(sizes(&mut scratch)?);
         extract(&refiner, &mut scratch, &mut v, &mut tr)?;
         drop((v, tr)); // freed inside the timing, before the next call allocates
         refine_fresh_repeat_ms = refine_fresh_repeat_ms.min(t.elapsed().as_secs_f64() * 1e3);
