@@ -355,6 +355,11 @@ impl<'a> Hierarchy<'a> {
         }
     }
 
+    /// The level-only circle radii, by level (used where there are no per-vertex spheres).
+    pub(crate) fn level_radii(&self) -> &[f32; 64] {
+        &self.level_radius
+    }
+
     /// The per-vertex radii of the full layout, if any.
     pub(crate) fn radii(&self) -> Option<&'a [f32]> {
         self.radii

@@ -629,20 +629,23 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         Ok(n)
     }
 
-    /// Runs [`Self::lean_walk`] into `sink` where it applies (a view-dependent frame with
-    /// `tau > 0` of a square grid whose packed points, `x | y << 32`, add without carrying, on
-    /// the full layout or linear records: layouts whose bit order is row-major, see
-    /// [`Refiner::new`], and which have spheres) and says whether it did.
+    /// Runs [`Self::lean_walk`] into `sink` where it applies (a view-dependent frame of a
+    /// square grid whose packed points, `x | y << 32`, add without carrying, on the full
+    /// layout, linear records or the compact layout: layouts whose bit order is row-major, see
+    /// [`Refiner::new`]; with `tau > 0` for the first two, which have spheres) and says
+    /// whether it did.
     fn lean_frame<S: LeanSink>(&self, sink: &mut S) -> bool {
         if !(self.g.is_square() && self.g.side() < 1 << 30) {
             return false;
         }
-        // Both layouts below have spheres; `decide_view` is told so, and that `tau > 0`.
-        if !self.view.as_ref().is_some_and(|v| v.spheres && v.tau > 0.0) {
+        let Some(v) = self.view.as_ref() else {
             return false;
-        }
-        match (self.view.as_ref(), self.h.errors, self.h.radii()) {
-            (Some(v), ErrorStore::F32(err), Some(rad)) => {
+        };
+        // The sphere layouts' decision is told that there are spheres and that `tau > 0`
+        // (`Fetch::SPHERES`).
+        let spheres = v.spheres && v.tau > 0.0;
+        match (self.h.errors, self.h.radii()) {
+            (ErrorStore::F32(err), Some(rad)) if spheres => {
                 let f = FullFetch {
                     err,
                     rad,
@@ -651,8 +654,17 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 self.lean_walk(v, &f, sink);
                 true
             }
-            (Some(v), ErrorStore::Records(recs, super::RecordLayout::Linear), _) => {
+            (ErrorStore::Records(recs, super::RecordLayout::Linear), _) if spheres => {
                 self.lean_walk(v, &RecordFetch { recs }, sink);
+                true
+            }
+            (ErrorStore::Bf16(err), None) => {
+                let f = CompactFetch {
+                    err,
+                    radius: self.h.level_radii(),
+                    t: self.t,
+                };
+                self.lean_walk(v, &f, sink);
                 true
             }
             _ => false,
@@ -694,8 +706,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             let d = if sink.seen(i) {
                 Decision::Split(planes)
             } else {
-                match f.fetch(i, x as u32, y as u32) {
-                    Some(ezr) => self.decide_view(v, true, (x, y), ezr, planes, level),
+                match f.fetch(i, x as u32, y as u32, level) {
+                    Some(ezr) => self.decide_view(v, F::SPHERES, (x, y), ezr, planes, level),
                     None => Decision::Split(planes),
                 }
             };
@@ -2189,7 +2201,12 @@ impl LeanSink for GridSink<'_, '_, '_> {
 /// local height and radius, as [`Refiner::decide_at`] reads them; `None` where that splits
 /// without a test (an infinite error, or no storage for the vertex).
 trait Fetch {
-    fn fetch(&self, i: usize, x: u32, y: u32) -> Option<(f32, f64, f64)>;
+    /// Whether the layout has per-vertex spheres (then [`Refiner::lean_frame`] also checks
+    /// `tau > 0`, and the decision is told both).
+    const SPHERES: bool;
+
+    /// The data of vertex `i` at `(x, y)` on `level`.
+    fn fetch(&self, i: usize, x: u32, y: u32, level: u32) -> Option<(f32, f64, f64)>;
 }
 
 /// The full layout: `f32` error and radius arrays, heights from the terrain.
@@ -2200,8 +2217,10 @@ struct FullFetch<'a, T> {
 }
 
 impl<T: Terrain> Fetch for FullFetch<'_, T> {
+    const SPHERES: bool = true;
+
     #[inline(always)]
-    fn fetch(&self, i: usize, x: u32, y: u32) -> Option<(f32, f64, f64)> {
+    fn fetch(&self, i: usize, x: u32, y: u32, _level: u32) -> Option<(f32, f64, f64)> {
         let e = self.err.get(i).copied().unwrap_or(f32::INFINITY);
         if e == f32::INFINITY {
             return None;
@@ -2218,14 +2237,45 @@ struct RecordFetch<'a> {
 }
 
 impl Fetch for RecordFetch<'_> {
+    const SPHERES: bool = true;
+
     #[inline(always)]
-    fn fetch(&self, i: usize, _x: u32, _y: u32) -> Option<(f32, f64, f64)> {
+    fn fetch(&self, i: usize, _x: u32, _y: u32, _level: u32) -> Option<(f32, f64, f64)> {
         let rec = self.recs.get(i)?;
         let e = rec.error_value();
         if e == f32::INFINITY {
             return None;
         }
         Some((e, rec.z as f64, rec.radius_value() as f64))
+    }
+}
+
+/// The compact layout: bfloat16 errors, level-only circles, heights from the terrain.
+struct CompactFetch<'a, T> {
+    err: &'a [u16],
+    radius: &'a [f32; 64],
+    t: &'a T,
+}
+
+impl<T: Terrain> Fetch for CompactFetch<'_, T> {
+    const SPHERES: bool = false;
+
+    #[inline(always)]
+    fn fetch(&self, i: usize, x: u32, y: u32, level: u32) -> Option<(f32, f64, f64)> {
+        let e = self
+            .err
+            .get(i)
+            .map_or(f32::INFINITY, |&c| super::preprocess::decode_bf16(c));
+        if e == f32::INFINITY {
+            return None;
+        }
+        let z = self.t.local_z(x, y) as f64;
+        let r = self
+            .radius
+            .get(level as usize)
+            .copied()
+            .unwrap_or(f32::INFINITY) as f64;
+        Some((e, z, r))
     }
 }
 
@@ -2331,8 +2381,9 @@ mod cull_tests {
         );
     }
 
-    /// The lean walk (square grids, full layout and linear records) against the general walk:
-    /// the same triangles in the same order, through `grid_triangles` and through `triangles`.
+    /// The lean walk (square grids: full layout, linear records, compact layout) against the
+    /// general walk: the same triangles in the same order, through `grid_triangles` and through
+    /// `triangles`.
     #[test]
     fn lean_walk_matches_the_general_walk_triangle_for_triangle() {
         use crate::refine::{pack_records, records_len, RecordLayout, VertexRecord};
@@ -2347,6 +2398,8 @@ mod cull_tests {
             let full = preprocess(&hf, &mut er, &mut ra).unwrap();
             let mut rl = vec![VertexRecord::default(); records_len(w, w, RecordLayout::Linear)];
             let lin = pack_records(&full, &hf, RecordLayout::Linear, &mut rl).unwrap();
+            let mut ec = vec![0u16; n];
+            let compact = preprocess_compact(&hf, &mut ec).unwrap();
             let f = w as f32;
             for (eye, target, tau) in [
                 (Vec3::new(-4.0, 3.0, 30.0), Vec3::new(10.0, 8.0, 0.0), 0.5),
@@ -2367,7 +2420,7 @@ mod cull_tests {
                     View::new(&cam, tau).unwrap().with_lazy_levels(0),
                     View::new(&cam, tau).unwrap().with_culling(false),
                 ] {
-                    for hier in [&full, &lin] {
+                    for hier in [&full, &lin, &compact] {
                         let rf = Refiner::new(hier, &hf, Criterion::View(view)).unwrap();
                         // The general walk into the row-major sink `grid_triangles` uses.
                         let mut buf = vec![[0u32; 3]; crate::refine::triangle_bound(w, w)];
@@ -2400,7 +2453,7 @@ mod cull_tests {
                 }
             }
         }
-        assert_eq!(frames, 3 * 3 * 3 * 2);
+        assert_eq!(frames, 3 * 3 * 3 * 3);
         assert!(
             total > 20_000,
             "{total} triangles: the comparison needs real frames"
