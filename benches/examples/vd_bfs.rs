@@ -76,7 +76,7 @@ impl Frame<'_> {
     }
 
     /// [`Frame::decide`] with the data and precision of `SRC` ([`OWN_F32`], [`OWN_F64`]:
-    /// [`common::LeanView::decide64`], [`LIB`]).
+    /// `f64` constants, [`LIB`]).
     #[inline(always)]
     fn decide_in<const SRC: u8>(&self, m: u32, planes: u32, level: u32) -> Option<(bool, u32)> {
         let (x, y) = xy(m);
@@ -84,13 +84,15 @@ impl Frame<'_> {
         if SRC == LIB {
             let r = self.lib[i];
             let erz = (r.error_value(), r.radius_value(), r.z);
-            return self.v.decide((x, y, level), erz, planes);
+            return self.v.decide(&self.v.f32s, (x, y, level), erz, planes);
         }
         let [e, rr, pz, _] = self.rec[i];
         if SRC == OWN_F64 {
-            self.v.decide64((x, y, level), (e, rr, pz), planes)
+            self.v
+                .decide(&self.v.f64s, (x, y, level), (e, rr, pz), planes)
         } else {
-            self.v.decide((x, y, level), (e, rr, pz), planes)
+            self.v
+                .decide(&self.v.f32s, (x, y, level), (e, rr, pz), planes)
         }
     }
 

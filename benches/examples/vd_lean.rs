@@ -75,7 +75,12 @@ impl Lean<'_> {
         let i = (m.1 * self.v.w + m.0) as usize;
         let (e, rr) = (self.err[i], self.rad[i]);
         self.v
-            .decide((m.0, m.1, level), (e, rr, self.z[i]), u32::from(planes))
+            .decide(
+                &self.v.f32s,
+                (m.0, m.1, level),
+                (e, rr, self.z[i]),
+                u32::from(planes),
+            )
             .map(|(s, p)| (s, p as u8))
     }
 

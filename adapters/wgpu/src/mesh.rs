@@ -268,6 +268,20 @@ fn grow(device: &wgpu::Device, buf: &mut wgpu::Buffer, need: u64, usage: wgpu::B
     }
 }
 
+/// Grows `buf` to hold `bytes` ([`grow`]) and writes them at its start (nothing for none).
+fn write_growing(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    buf: &mut wgpu::Buffer,
+    bytes: &[u8],
+    usage: wgpu::BufferUsages,
+) {
+    grow(device, buf, bytes.len() as u64, usage);
+    if !bytes.is_empty() {
+        queue.write_buffer(buf, 0, bytes);
+    }
+}
+
 fn buf_label(usage: wgpu::BufferUsages) -> Option<&'static str> {
     if usage.contains(wgpu::BufferUsages::INDEX) {
         Some("relief mesh indices")
@@ -436,14 +450,13 @@ impl MeshPass {
             .filter_map(|(x, y)| terrain.position(x, y))
             .map(|p| p.to_array())
             .collect();
-        let vb: &[u8] = bytemuck::cast_slice(&vb);
-        grow(
+        write_growing(
             device,
+            queue,
             &mut self.vertices,
-            vb.len() as u64,
+            bytemuck::cast_slice(&vb),
             wgpu::BufferUsages::VERTEX,
         );
-        queue.write_buffer(&self.vertices, 0, vb);
         self.morph = false;
     }
 
@@ -508,27 +521,18 @@ impl MeshPass {
         strip: bool,
         morph: bool,
     ) {
-        let ib: &[u8] = bytemuck::cast_slice(indices);
         if let Some(vb) = vb {
-            grow(
-                device,
-                &mut self.vertices,
-                vb.len() as u64,
-                wgpu::BufferUsages::VERTEX,
-            );
-            if !vb.is_empty() {
-                queue.write_buffer(&self.vertices, 0, vb);
-            }
+            let usage = wgpu::BufferUsages::VERTEX;
+            write_growing(device, queue, &mut self.vertices, vb, usage);
         }
-        grow(
+        let ib: &[u8] = bytemuck::cast_slice(indices);
+        write_growing(
             device,
+            queue,
             &mut self.indices,
-            ib.len() as u64,
+            ib,
             wgpu::BufferUsages::INDEX,
         );
-        if !ib.is_empty() {
-            queue.write_buffer(&self.indices, 0, ib);
-        }
         self.strip = strip;
         self.morph = morph;
         self.index_count = if strip {

@@ -383,28 +383,17 @@ impl LeanView {
         }
     }
 
-    /// [`Consts::decide`] in `f32` for the split vertex at `(x, y)` on `level`.
+    /// [`Consts::decide`] with the constants `c` (`self.f32s`, or `self.f64s` as the library
+    /// decides) for the split vertex at `(x, y)` on `level`.
     #[inline(always)]
-    pub fn decide(
+    pub fn decide<R: Real>(
         &self,
+        c: &Consts<R>,
         (x, y, level): (u32, u32, u32),
         erz: (f32, f32, f32),
         planes: u32,
     ) -> Option<(bool, u32)> {
-        self.f32s
-            .decide((x, y, level >= self.lazy_from), erz, planes)
-    }
-
-    /// The same in `f64`, as the library decides.
-    #[inline(always)]
-    pub fn decide64(
-        &self,
-        (x, y, level): (u32, u32, u32),
-        erz: (f32, f32, f32),
-        planes: u32,
-    ) -> Option<(bool, u32)> {
-        self.f64s
-            .decide((x, y, level >= self.lazy_from), erz, planes)
+        c.decide((x, y, level >= self.lazy_from), erz, planes)
     }
 }
 

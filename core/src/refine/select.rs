@@ -505,8 +505,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             bits,
             prefix,
             w: self.g.width() as i64,
-            out: triangles,
-            n: 0,
+            out: TriOut {
+                out: triangles,
+                n: 0,
+            },
         };
         // View-independent (the view-dependent criterion returned above).
         let n = self.g.side() as i64;
@@ -618,14 +620,16 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         }
         let mut sink = RowSink {
             w: self.g.width() as i64,
-            out: triangles,
-            n: 0,
+            out: TriOut {
+                out: triangles,
+                n: 0,
+            },
         };
         if !self.lean_frame(&mut sink) {
             self.walk_all(&mut sink, false);
         }
-        let n = sink.n;
-        need(n, sink.out.len())?;
+        let n = sink.out.n;
+        need(n, sink.out.out.len())?;
         Ok(n)
     }
 
@@ -793,14 +797,16 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         m.begin_sparse();
         let mut sink = GridSink {
             m: &mut m,
-            out: &mut *triangles,
-            n: 0,
+            out: TriOut {
+                out: &mut *triangles,
+                n: 0,
+            },
             w: u64::from(self.g.width()),
         };
         if !self.lean_frame(&mut sink) {
             self.walk_all(&mut sink, false);
         }
-        let nt = sink.n;
+        let nt = sink.out.n;
         let nv = m.prefix_sparse();
         let fits = nt <= triangles.len() && nv <= vertices.len();
         if fits {
@@ -2092,8 +2098,7 @@ impl<'a, 's, K: Fn(usize) -> bool> ViMark<'a, 's, K> {
 /// Writes triangles as grid indices (while there is room) and marks their vertices.
 struct GridSink<'a, 's, 'o> {
     m: &'a mut Marks<'s>,
-    out: &'o mut [[u32; 3]],
-    n: usize,
+    out: TriOut<'o>,
     /// Grid width (for [`LeanSink`]: row-major bit order).
     w: u64,
 }
@@ -2116,10 +2121,7 @@ impl GridSink<'_, '_, '_> {
             self.m.mark(i);
             *o = i as u32;
         }
-        if let Some(o) = self.out.get_mut(self.n) {
-            *o = t;
-        }
-        self.n += 1;
+        self.out.put(t);
     }
 }
 
@@ -2139,26 +2141,14 @@ impl PtSink for GridSink<'_, '_, '_> {
 /// traversal decides every vertex it reaches.
 struct RowSink<'o> {
     w: i64,
-    out: &'o mut [[u32; 3]],
-    n: usize,
-}
-
-impl RowSink<'_> {
-    /// Writes one triangle (while there is room) and counts it.
-    #[inline(always)]
-    fn push(&mut self, t: [u32; 3]) {
-        if let Some(o) = self.out.get_mut(self.n) {
-            *o = t;
-        }
-        self.n += 1;
-    }
+    out: TriOut<'o>,
 }
 
 impl PtSink for RowSink<'_> {
     #[inline(always)]
     fn tri(&mut self, a: Pt, b: Pt, c: Pt) {
         let idx = |p: Pt| (p.0 .1 * self.w + p.0 .0) as u32;
-        self.push([idx(a), idx(b), idx(c)]);
+        self.out.put([idx(a), idx(b), idx(c)]);
     }
 }
 
@@ -2179,7 +2169,7 @@ impl LeanSink for RowSink<'_> {
     fn put(&mut self, a: u64, b: u64, c: u64) {
         let w = self.w as u64;
         let idx = |p: u64| ((p >> 32) * w + (p & IDX)) as u32;
-        self.push([idx(a), idx(b), idx(c)]);
+        self.out.put([idx(a), idx(b), idx(c)]);
     }
 }
 
@@ -2283,18 +2273,14 @@ struct ListSink<'a, 'o> {
     bits: &'a [u64],
     prefix: &'a [u64],
     w: i64,
-    out: &'o mut [[u32; 3]],
-    n: usize,
+    out: TriOut<'o>,
 }
 
 impl Sink for ListSink<'_, '_> {
     #[inline(always)]
     fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64)) {
         let idx = |p: (i64, i64)| rank(self.bits, self.prefix, (p.1 * self.w + p.0) as usize);
-        if let Some(o) = self.out.get_mut(self.n) {
-            *o = [idx(a), idx(b), idx(c)];
-        }
-        self.n += 1;
+        self.out.put([idx(a), idx(b), idx(c)]);
     }
 }
 
@@ -2426,11 +2412,13 @@ mod cull_tests {
                         let mut buf = vec![[0u32; 3]; crate::refine::triangle_bound(w, w)];
                         let mut rows = RowSink {
                             w: i64::from(w),
-                            out: &mut buf,
-                            n: 0,
+                            out: TriOut {
+                                out: &mut buf,
+                                n: 0,
+                            },
                         };
                         rf.walk_all(&mut rows, false);
-                        let count = rows.n;
+                        let count = rows.out.n;
                         let general = &buf[..count];
                         let mut lean = vec![[0u32; 3]; general.len() + 1];
                         let k = rf.grid_triangles(&mut lean).unwrap();
