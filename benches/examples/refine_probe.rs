@@ -1,7 +1,7 @@
 //! Quick refinement timings on the bundled Puget Sound DEM, fastest of `RUNS` (default 30) runs
 //! per case (the fastest run is the least disturbed on a shared machine): view-independent
 //! extraction at E = 5 and 50 m and view-dependent refinement with culling at 0.5, 1 and 4 px,
-//! every layout.
+//! every layout (and, on the full layout, `Refiner::count` alone: the `full-count` rows).
 //!
 //! `cargo run --release -p relief-benches --example refine_probe` (`RUNS=n`, `FILTER="vd tau=1"`)
 
@@ -55,16 +55,17 @@ fn main() {
         ));
     }
     for (name, crit) in &cases {
-        for (lname, hier, pop) in [
-            ("full", &full, false),
-            ("full-pc", &full, true),
-            ("compact", &compact, false),
-            ("compact-pc", &compact, true),
-            ("rec-lin", &lin, false),
-            ("rec-il", &il, false),
+        for (lname, hier, call) in [
+            ("full", &full, Call::Triangles),
+            ("full-pc", &full, Call::Popcnt),
+            ("full-count", &full, Call::Count),
+            ("compact", &compact, Call::Triangles),
+            ("compact-pc", &compact, Call::Popcnt),
+            ("rec-lin", &lin, Call::Triangles),
+            ("rec-il", &il, Call::Triangles),
         ] {
             // The `-pc` rows: `triangles_popcnt` (where the CPU has it).
-            if pop && !popcnt() {
+            if call == Call::Popcnt && !popcnt() {
                 continue;
             }
             if !format!("{name} {lname}").contains(&filter) {
@@ -75,10 +76,10 @@ fn main() {
             let mut c = Default::default();
             for _ in 0..runs {
                 let s = Instant::now();
-                c = black_box(if pop {
-                    triangles_popcnt(&r, scratch, verts, tris)
-                } else {
-                    r.triangles(scratch, verts, tris).unwrap()
+                c = black_box(match call {
+                    Call::Triangles => r.triangles(scratch, verts, tris).unwrap(),
+                    Call::Popcnt => triangles_popcnt(&r, scratch, verts, tris),
+                    Call::Count => r.count(scratch).unwrap(),
                 });
                 best = best.min(s.elapsed().as_secs_f64() * 1e3);
             }
@@ -90,6 +91,17 @@ fn main() {
             );
         }
     }
+}
+
+/// What a row times.
+#[derive(Clone, Copy, PartialEq)]
+enum Call {
+    /// `Refiner::triangles`.
+    Triangles,
+    /// `Refiner::triangles_popcnt`.
+    Popcnt,
+    /// `Refiner::count` (what a frame needs, no output: the `-count` row).
+    Count,
 }
 
 fn popcnt() -> bool {
