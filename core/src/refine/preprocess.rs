@@ -381,15 +381,28 @@ fn near_triangle_error<const H: i64, const S: usize, const P: u8, const K: usize
             }
         )*};
     }
-    samples!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24);
+    samples!(0 1 2 3 4 5 6 7 8 9 10 11 12 13 14 15 16 17 18 19 20 21 22 23 24 25 26 27 28 29 30 31
+        32 33 34 35 36 37 38 39 40 41 42 43 44 45 46 47 48 49 50 51 52 53 54 55 56 57 58 59 60 61
+        62 63 64 65 66 67 68 69 70 71 72 73 74 75 76 77 78 79 80 81 82 83 84 85 86 87 88 89 90 91
+        92 93 94 95 96 97 98 99 100 101 102 103 104 105 106 107 108 109 110 111 112 113 114 115 116
+        117 118 119 120 121 122 123 124 125 126 127 128 129 130 131 132 133 134 135 136 137 138 139
+        140 141 142 143 144 145 146 147 148 149 150 151 152);
     e
 }
 
+/// The largest half-size the neighbourhood path ([`vertex_near`]) serves.
+const NEAR_MAX_H: i64 = 8;
+
+/// Capacity of a triangle's sample list in the neighbourhood path: the samples of a closed right
+/// triangle with legs `2 NEAR_MAX_H`, `(2H + 1)(2H + 2) / 2`.
+const NEAR_SAMPLES: usize = 153;
+
 /// The samples `(dx, dy)` of the closed lattice triangle `p` (coordinates relative to a vertex,
-/// each in `-h..=h`, `h <= 2`) in row order (`dy`, then `dx`), and how many (at most 25).
-const fn inside_offsets(h: i64, p: [(i64, i64); 3]) -> ([(i8, i8); 25], usize) {
+/// each in `-h..=h`, `h <= 8`) in row order (`dy`, then `dx`), and how many (at most
+/// [`NEAR_SAMPLES`]: a right triangle with legs 16 holds 153).
+const fn inside_offsets(h: i64, p: [(i64, i64); 3]) -> ([(i8, i8); NEAR_SAMPLES], usize) {
     use super::raster::orient;
-    let mut out = [(0i8, 0i8); 25];
+    let mut out = [(0i8, 0i8); NEAR_SAMPLES];
     let mut n = 0usize;
     let sg = orient(p[0], p[1], p[2]).signum();
     let mut dy = -h;
@@ -412,7 +425,7 @@ const fn inside_offsets(h: i64, p: [(i64, i64); 3]) -> ([(i8, i8); 25], usize) {
     (out, n)
 }
 
-/// The diamond (two triangles) of a finest-level vertex of half-size `h` and shape `p` (as in
+/// The diamond (two triangles) of a fine-level vertex (half-size at most 8) of half-size `h` and shape `p` (as in
 /// [`vertex_near`]), relative to the vertex: the sets of [`shape`] (tested), corners listed as
 /// there.
 const fn near_diamond(h: i64, p: u8) -> [[(i64, i64); 3]; 2] {
@@ -424,7 +437,7 @@ const fn near_diamond(h: i64, p: u8) -> [[(i64, i64); 3]; 2] {
     }
 }
 
-/// Compile-time data of a finest-level vertex shape: half-size `H`, shape `P` (as in
+/// Compile-time data of a fine-level vertex shape (half-size at most 8): half-size `H`, shape `P` (as in
 /// [`vertex_near`]).
 struct NearShape<const H: i64, const P: u8>;
 
@@ -432,7 +445,7 @@ impl<const H: i64, const P: u8> NearShape<H, P> {
     /// The diamond, [`near_diamond`].
     const DIAMOND: [[(i64, i64); 3]; 2] = near_diamond(H, P);
     /// The samples of each of its triangles, [`inside_offsets`].
-    const INSIDE: [([(i8, i8); 25], usize); 2] = [
+    const INSIDE: [([(i8, i8); NEAR_SAMPLES], usize); 2] = [
         inside_offsets(H, Self::DIAMOND[0]),
         inside_offsets(H, Self::DIAMOND[1]),
     ];
@@ -464,7 +477,7 @@ impl<const H: i64, const P: u8> NearShape<H, P> {
     }
 }
 
-/// [`vertex_general`] for a vertex of half-size `H` (1 or 2; `S = (2H + 1)^2`) at `(x, y)`
+/// [`vertex_general`] for a vertex of half-size `H` (1, 2, 4 or 8; `S = (2H + 1)^2`) at `(x, y)`
 /// whose `(2H + 1)^2` neighbourhood lies in the domain (so every triangle is inside and every
 /// corner and child in the domain): the heights are read once, the diamond's two planes are
 /// built in relative coordinates, and the arithmetic is otherwise the same, in the same order.
@@ -487,7 +500,7 @@ fn vertex_near<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSi
     let side = (2 * H + 1) as usize;
     // Row by row (constant trip counts unroll; no division per entry).
     for (row, dy) in nb.chunks_exact_mut(side).zip(-H..=H) {
-        let mut hs = [0.0f32; 5];
+        let mut hs = [0.0f32; 2 * NEAR_MAX_H as usize + 1];
         let hs = hs.get_mut(..side).unwrap_or(&mut []);
         t.local_z_row((x - H) as u32, (y + dy) as u32, hs);
         for (v, &z) in row.iter_mut().zip(hs.iter()) {
@@ -497,7 +510,7 @@ fn vertex_near<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSi
     near_store::<H, S, P, T, E>(t, g, (x, y), &nb, errors, radii, contain_corners);
 }
 
-/// One vertex of a finest-level row (see [`near_row`]): [`vertex_near`] with shape `P` when its
+/// One vertex of a fine-level row (see [`near_row`]): [`vertex_near`] with shape `P` when its
 /// `(2H + 1)^2` neighbourhood lies in the domain, else [`vertex_general`].
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -527,7 +540,7 @@ fn near_one<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSink 
 }
 
 /// The vertices `x_first, x_first + 2H, ..., <= x_end` of row `y` of a pass with half-size `H`
-/// (1 or 2; `S = (2H + 1)^2`), alternately of shape `PA` and `PB` (as in [`vertex_near`]; the
+/// (1, 2, 4 or 8; `S = (2H + 1)^2`), alternately of shape `PA` and `PB` (as in [`vertex_near`]; the
 /// same for edge vertices, the two diagonals for centres, starting with `x_first`'s). Vertices
 /// whose `(2H + 1)^2` neighbourhood lies in the domain take [`vertex_near`], the others
 /// [`vertex_general`]; both store bit-identical values (tested). Never inlined: each
@@ -724,15 +737,25 @@ pub(crate) fn pass_range<T: Terrain, E: ErrorSink + ?Sized>(
         // Centres: whether the square of the row's first vertex is cut along its main diagonal;
         // the next one's is not.
         let main = || on_main_diagonal(xs.0, y, h);
-        match (h, pass) {
-            (1, 0) => near_row::<1, 9, 0, 0, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
-            (1, 1) => near_row::<1, 9, 1, 1, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
-            (1, _) if main() => near_row::<1, 9, 2, 3, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
-            (1, _) => near_row::<1, 9, 3, 2, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
-            (2, 0) => near_row::<2, 25, 0, 0, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
-            (2, 1) => near_row::<2, 25, 1, 1, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
-            (2, _) if main() => near_row::<2, 25, 2, 3, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
-            (2, _) => near_row::<2, 25, 3, 2, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+        // The row's shapes as constants: edge vertices of pass 0 or 1, or centres alternating
+        // between the two diagonals, starting with the first vertex's.
+        macro_rules! near {
+            ($h:literal, $s:literal) => {
+                match pass {
+                    0 => near_row::<$h, $s, 0, 0, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+                    1 => near_row::<$h, $s, 1, 1, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+                    _ if main() => {
+                        near_row::<$h, $s, 2, 3, T, E>(t, g, (y, pass), xs, e, r, cc, pr)
+                    }
+                    _ => near_row::<$h, $s, 3, 2, T, E>(t, g, (y, pass), xs, e, r, cc, pr),
+                }
+            };
+        }
+        match h {
+            1 => near!(1, 9),
+            2 => near!(2, 25),
+            4 => near!(4, 81),
+            8 => near!(8, 289),
             _ => {
                 let mut x = xs.0;
                 while x <= xe {
@@ -877,7 +900,7 @@ mod fast_tests {
             .collect()
     }
 
-    /// Runs `f` with the finest-level fast path on and off.
+    /// Runs `f` with the fine-level fast path on and off.
     fn both<R>(mut f: impl FnMut() -> R) -> (R, R) {
         FAST_FINEST.set(true);
         let fast = f();
@@ -899,11 +922,30 @@ mod fast_tests {
         use super::super::grid::RefineGrid;
         use super::{box_error, shape, small_error, triangle_error};
         let mut checked = 0usize;
-        for (w, h, kind) in [(17, 17, 0), (13, 9, 2), (9, 11, 1)] {
+        // The (2H + 1)^2 neighbourhood of (x, y), zero outside the grid.
+        fn nb<const H: i64, const S: usize>(hf: &Heightfield<'_, f32>, x: i64, y: i64) -> [f64; S] {
+            let side = 2 * H + 1;
+            let mut nb = [0.0f64; S];
+            for (k, v) in nb.iter_mut().enumerate() {
+                let (qx, qy) = (x + k as i64 % side - H, y + k as i64 / side - H);
+                if qx >= 0 && qy >= 0 && qx < hf.width() as i64 && qy < hf.height() as i64 {
+                    *v = hf.local_z(qx as u32, qy as u32) as f64;
+                }
+            }
+            nb
+        }
+        let sizes = [
+            (17, 17, 0),
+            (13, 9, 2),
+            (9, 11, 1),
+            (33, 33, 3),
+            (41, 35, 0),
+        ];
+        for (w, h, kind) in sizes {
             let s = terrain(w, h, 99 + kind as u64, kind);
             let hf = Heightfield::new(&s, w, h).unwrap();
             let g = RefineGrid::new(w, h).unwrap();
-            for hs in [1i64, 2] {
+            for hs in [1i64, 2, 4, 8] {
                 for (pass, (x0, y0)) in [(hs, 0), (0, hs), (hs, hs)].into_iter().enumerate() {
                     for y in (y0..h as i64 - hs).step_by(2 * hs as usize) {
                         for x in (x0..w as i64 - hs).step_by(2 * hs as usize) {
@@ -911,27 +953,22 @@ mod fast_tests {
                                 continue;
                             }
                             let (diamond, _) = shape(&g, x, y, hs, pass);
-                            let mut nb3 = [0.0f64; 9];
-                            let mut nb5 = [0.0f64; 25];
-                            for (k, v) in nb3.iter_mut().enumerate() {
-                                let (dx, dy) = ((k % 3) as i64 - 1, (k / 3) as i64 - 1);
-                                *v = hf.local_z((x + dx) as u32, (y + dy) as u32) as f64;
-                            }
-                            for (k, v) in nb5.iter_mut().enumerate() {
-                                let (dx, dy) = ((k % 5) as i64 - 2, (k / 5) as i64 - 2);
-                                let (qx, qy) = (x + dx, y + dy);
-                                if qx >= 0 && qy >= 0 && qx < w as i64 && qy < h as i64 {
-                                    *v = hf.local_z(qx as u32, qy as u32) as f64;
-                                }
-                            }
+                            let nb17 = nb::<8, 289>(&hf, x, y);
                             for tri in diamond.iter().flatten() {
                                 let want = triangle_error(&hf, &g, *tri).to_bits();
                                 let q = tri.map(|p| (p.0 - x, p.1 - y));
-                                let got5 = box_error::<2, 25>(&nb5, q).to_bits();
-                                assert_eq!(got5, want, "box5 ({x},{y}) h {hs} {tri:?}");
+                                let got17 = box_error::<8, 289>(&nb17, q).to_bits();
+                                assert_eq!(got17, want, "box17 ({x},{y}) h {hs} {tri:?}");
+                                let own = match hs {
+                                    1 => box_error::<1, 9>(&nb::<1, 9>(&hf, x, y), q),
+                                    2 => box_error::<2, 25>(&nb::<2, 25>(&hf, x, y), q),
+                                    4 => box_error::<4, 81>(&nb::<4, 81>(&hf, x, y), q),
+                                    _ => box_error::<8, 289>(&nb17, q),
+                                };
+                                assert_eq!(own.to_bits(), want, "own ({x},{y}) h {hs} {tri:?}");
                                 if hs == 1 {
+                                    let nb3 = nb::<1, 9>(&hf, x, y);
                                     assert_eq!(small_error(&nb3, q).to_bits(), want);
-                                    assert_eq!(box_error::<1, 9>(&nb3, q).to_bits(), want);
                                 }
                                 checked += usize::from(want != 0);
                             }
@@ -943,15 +980,15 @@ mod fast_tests {
         assert!(checked > 300, "{checked}");
     }
 
-    /// The compile-time tables of the finest levels ([`super::NearShape`]) are the grid's own
+    /// The compile-time tables of the fine levels (half-sizes 1, 2, 4, 8) ([`super::NearShape`]) are the grid's own
     /// diamonds ([`super::shape`]) and the rasteriser's samples ([`super::super::raster`]).
     #[test]
     fn near_shapes_are_the_grid_diamonds_and_their_samples() {
         use super::super::grid::RefineGrid;
         use super::super::raster::for_each_span;
         use super::{inside_offsets, near_diamond, shape};
-        let g = RefineGrid::new(33, 33).unwrap();
-        for h in [1i64, 2] {
+        let g = RefineGrid::new(65, 65).unwrap();
+        for h in [1i64, 2, 4, 8] {
             // A vertex of each shape: edge passes at (3h, 2h) and (2h, 3h); centres at (3h, 3h)
             // and (5h, 3h), whose squares are cut along the two different diagonals.
             let cases = [
@@ -993,10 +1030,10 @@ mod fast_tests {
     }
 
     /// Every preprocessing entry point stores bit-identical errors and radii with the
-    /// finest-level fast path and with the general (reference) path, on grids of many shapes
+    /// fine-level fast path (half-sizes 1, 2, 4 and 8) and with the general (reference) path, on grids of many shapes
     /// (odd, even, tiny, non-square), four terrains, unit and non-unit scales, both sphere kinds.
     #[test]
-    fn finest_fast_path_is_bit_identical() {
+    fn fine_level_fast_path_is_bit_identical() {
         let sizes = [
             (2, 2),
             (3, 3),
@@ -1009,6 +1046,8 @@ mod fast_tests {
             (64, 48),
             (65, 65),
             (100, 77),
+            (129, 129),
+            (150, 97),
         ];
         let scales = [
             Scale::default(),
