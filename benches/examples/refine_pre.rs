@@ -7,8 +7,8 @@
 //!
 //! `cargo run --release -p relief-benches --example refine_pre` (`RUNS=n`; `DEM=path`, optionally
 //! `FORMAT=name` as `relief --format` takes it, times that grid instead, the pyramid variants
-//! included; the first call of each layout is reported too; `ONLY=compact` times the compact
-//! layout alone, for profiles)
+//! included; the first call of each layout is reported too; `ONLY=compact` or `ONLY=full` times
+//! that layout alone, for profiles)
 
 use relief_core::refine::{
     hierarchy_len, preprocess, preprocess_compact, preprocess_compact_pyramid, preprocess_pyramid,
@@ -65,13 +65,23 @@ fn main() {
     let t = Instant::now();
     black_box(preprocess(&hf, &mut e, &mut r).unwrap());
     let full_first = t.elapsed().as_secs_f64() * 1e3;
-    if std::env::var("ONLY").as_deref() == Ok("compact") {
-        // ONLY=compact: the compact layout alone (for profiles).
-        let compact = fastest(runs, || {
-            black_box(preprocess_compact(&hf, &mut c).unwrap());
-        });
-        println!("preprocess compact {compact:8.3} ms  first call {compact_first:8.3} ms");
-        return;
+    match std::env::var("ONLY").as_deref() {
+        // ONLY=compact or ONLY=full: that layout alone (for profiles).
+        Ok("compact") => {
+            let compact = fastest(runs, || {
+                black_box(preprocess_compact(&hf, &mut c).unwrap());
+            });
+            println!("preprocess compact {compact:8.3} ms  first call {compact_first:8.3} ms");
+            return;
+        }
+        Ok("full") => {
+            let full = fastest(runs, || {
+                black_box(preprocess(&hf, &mut e, &mut r).unwrap());
+            });
+            println!("preprocess full {full:8.3} ms  first call {full_first:8.3} ms");
+            return;
+        }
+        _ => {}
     }
     let full = fastest(runs, || {
         black_box(preprocess(&hf, &mut e, &mut r).unwrap());
