@@ -22,8 +22,8 @@ def main():
                       if len(p) == 3 and p[1] in "tT" and pattern.search(p[2])})
     frames = []
     for sym in symbols:
-        asm = subprocess.run(["objdump", "-d", "--no-show-raw-insn", "--disassemble=" + sym, binary],
-                             capture_output=True, text=True, check=True).stdout
+        cmd = ["objdump", "-d", "--no-show-raw-insn", "--disassemble=" + sym, binary]
+        asm = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
         head = [l for l in asm.splitlines() if re.match(r"\s+[0-9a-f]+:", l)][:25]
         sub = sum(int(m.group(1), 16) for l in head
                   for m in [re.search(r"sub\s+\$0x([0-9a-f]+),%rsp", l)] if m)

@@ -425,7 +425,7 @@ const fn inside_offsets(h: i64, p: [(i64, i64); 3]) -> ([(i8, i8); NEAR_SAMPLES]
     (out, n)
 }
 
-/// The diamond (two triangles) of a fine-level vertex (half-size at most 8) of half-size `h` and shape `p` (as in
+/// The diamond (two triangles) of a vertex of half-size `h` (at most 8) and shape `p` (as in
 /// [`vertex_near`]), relative to the vertex: the sets of [`shape`] (tested), corners listed as
 /// there.
 const fn near_diamond(h: i64, p: u8) -> [[(i64, i64); 3]; 2] {
@@ -437,8 +437,8 @@ const fn near_diamond(h: i64, p: u8) -> [[(i64, i64); 3]; 2] {
     }
 }
 
-/// Compile-time data of a fine-level vertex shape (half-size at most 8): half-size `H`, shape `P` (as in
-/// [`vertex_near`]).
+/// Compile-time data of a vertex shape of the neighbourhood path: half-size `H` (at most 8),
+/// shape `P` (as in [`vertex_near`]).
 struct NearShape<const H: i64, const P: u8>;
 
 impl<const H: i64, const P: u8> NearShape<H, P> {
@@ -477,10 +477,11 @@ impl<const H: i64, const P: u8> NearShape<H, P> {
     }
 }
 
-/// [`vertex_general`] for a vertex of half-size `H` (1, 2, 4 or 8; `S = (2H + 1)^2`) at `(x, y)`
-/// whose `(2H + 1)^2` neighbourhood lies in the domain (so every triangle is inside and every
-/// corner and child in the domain): the heights are read once, the diamond's two planes are
-/// built in relative coordinates, and the arithmetic is otherwise the same, in the same order.
+/// [`vertex_general`] for a vertex of half-size `H` (1, 2, 4 or 8; `S = (2H + 1)^2`) at
+/// `(x, y)` whose `(2H + 1)^2` neighbourhood lies in the domain (so every triangle is inside and
+/// every corner and child in the domain): the heights are read once, the diamond's two planes
+/// are built in relative coordinates, and the arithmetic is otherwise the same, in the same
+/// order.
 ///
 /// `P` is the vertex's shape: 0 an edge vertex of pass 0, 1 of pass 1, 2 a centre whose square is
 /// cut along its main diagonal, 3 along the other one. As a constant it makes every relative
@@ -510,7 +511,7 @@ fn vertex_near<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSi
     near_store::<H, S, P, T, E>(t, g, (x, y), &nb, errors, radii, contain_corners);
 }
 
-/// One vertex of a fine-level row (see [`near_row`]): [`vertex_near`] with shape `P` when its
+/// One vertex of a neighbourhood-path row (see [`near_row`]): [`vertex_near`] with shape `P` when its
 /// `(2H + 1)^2` neighbourhood lies in the domain, else [`vertex_general`].
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
@@ -540,8 +541,8 @@ fn near_one<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSink 
 }
 
 /// The vertices `x_first, x_first + 2H, ..., <= x_end` of row `y` of a pass with half-size `H`
-/// (1, 2, 4 or 8; `S = (2H + 1)^2`), alternately of shape `PA` and `PB` (as in [`vertex_near`]; the
-/// same for edge vertices, the two diagonals for centres, starting with `x_first`'s). Vertices
+/// (1, 2, 4 or 8; `S = (2H + 1)^2`), alternately of shape `PA` and `PB` (as in [`vertex_near`];
+/// the same for edge vertices, the two diagonals for centres, starting with `x_first`'s). Vertices
 /// whose `(2H + 1)^2` neighbourhood lies in the domain take [`vertex_near`], the others
 /// [`vertex_general`]; both store bit-identical values (tested). Never inlined: each
 /// instantiation keeps its shapes' constants (merged copies chose them at run time).
@@ -900,7 +901,7 @@ mod fast_tests {
             .collect()
     }
 
-    /// Runs `f` with the fine-level fast path on and off.
+    /// Runs `f` with the neighbourhood path on and off.
     fn both<R>(mut f: impl FnMut() -> R) -> (R, R) {
         FAST_FINEST.set(true);
         let fast = f();
@@ -980,8 +981,9 @@ mod fast_tests {
         assert!(checked > 300, "{checked}");
     }
 
-    /// The compile-time tables of the fine levels (half-sizes 1, 2, 4, 8) ([`super::NearShape`]) are the grid's own
-    /// diamonds ([`super::shape`]) and the rasteriser's samples ([`super::super::raster`]).
+    /// The compile-time tables of the neighbourhood path ([`super::NearShape`], half-sizes 1, 2, 4
+    /// and 8) are the grid's own diamonds ([`super::shape`]) and the rasteriser's samples
+    /// ([`super::super::raster`]).
     #[test]
     fn near_shapes_are_the_grid_diamonds_and_their_samples() {
         use super::super::grid::RefineGrid;
@@ -1030,8 +1032,9 @@ mod fast_tests {
     }
 
     /// Every preprocessing entry point stores bit-identical errors and radii with the
-    /// fine-level fast path (half-sizes 1, 2, 4 and 8) and with the general (reference) path, on grids of many shapes
-    /// (odd, even, tiny, non-square), four terrains, unit and non-unit scales, both sphere kinds.
+    /// neighbourhood path (half-sizes 1, 2, 4 and 8) and with the general (reference) path, on
+    /// grids of many shapes (odd, even, tiny, non-square), four terrains, unit and non-unit
+    /// scales, both sphere kinds.
     #[test]
     fn fine_level_fast_path_is_bit_identical() {
         let sizes = [
