@@ -31,7 +31,7 @@
 //! bottom-up: the refinement stays crack-free and the error bound stays true.
 
 use super::grid::RefineGrid;
-use super::preprocess::{decode_bf16, encode_bf16_up, round_up};
+use super::preprocess::{decode_bf16, encode_bf16_up, round_up_inexact};
 use super::{ErrorStore, Hierarchy};
 use crate::{Error, Terrain};
 
@@ -354,7 +354,7 @@ pub fn pack_records<'a, T: Terrain>(
                         }
                     }
                     if let Some(r) = out.get_mut(record_index(layout, &g, x, y)) {
-                        r.radius = encode_bf16_up(round_up(rad));
+                        r.radius = encode_bf16_up(round_up_inexact(rad));
                     }
                     x += 2 * hs;
                 }

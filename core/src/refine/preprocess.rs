@@ -19,7 +19,8 @@ pub(crate) const SPHERE_MARGIN: f64 = 1.0 / (1u64 << 20) as f64;
 /// Relative inflation of level-only circle radii (their exact nesting is an equality).
 pub(crate) const CIRCLE_MARGIN: f64 = 1.0 / (1u64 << 16) as f64;
 
-/// The smallest `f32` at least `e` (`e >= 0`).
+/// The smallest `f32` at least `e` (`e >= 0`). The branch is taken rarely for errors: on
+/// quantised heights they are mostly exact in `f32`.
 #[inline]
 pub(crate) fn round_up(e: f64) -> f32 {
     let f = e as f32;
@@ -28,6 +29,23 @@ pub(crate) fn round_up(e: f64) -> f32 {
     } else {
         f
     }
+}
+
+/// [`round_up`] without a branch, for values that are seldom exact in `f32` (radii, from square
+/// roots), where a branch on the rounding would mispredict about half the time. For a
+/// non-negative `f32` below `+inf` the next one up is the next bit pattern (the largest finite
+/// one's is `+inf`); a negative one (never passed) steps the other way.
+#[inline]
+pub(crate) fn round_up_inexact(e: f64) -> f32 {
+    let f = e as f32;
+    let step = u32::from((f as f64) < e);
+    let b = f.to_bits();
+    let b = if b >> 31 == 0 {
+        b.wrapping_add(step)
+    } else {
+        b.wrapping_sub(step)
+    };
+    f32::from_bits(b)
 }
 
 /// Encodes a non-negative error as the upper 16 bits of its `f32` pattern, rounded up
@@ -631,7 +649,7 @@ fn near_store<const H: i64, const S: usize, const P: u8, T: Terrain, E: ErrorSin
             rad = rad.max(dist(p, pos(kq)) + rc);
         }
         if let Some(slot) = r.get_mut(idx((0, 0))) {
-            *slot = round_up(rad * (1.0 + SPHERE_MARGIN) + f64::MIN_POSITIVE);
+            *slot = round_up_inexact(rad * (1.0 + SPHERE_MARGIN) + f64::MIN_POSITIVE);
         }
     }
 }
@@ -685,7 +703,7 @@ pub(crate) fn vertex_general<T: Terrain, E: ErrorSink + ?Sized>(
             }
         }
         if let Some(slot) = r.get_mut(idx(x, y)) {
-            *slot = round_up(rad * (1.0 + SPHERE_MARGIN) + f64::MIN_POSITIVE);
+            *slot = round_up_inexact(rad * (1.0 + SPHERE_MARGIN) + f64::MIN_POSITIVE);
         }
     }
 }
@@ -913,6 +931,44 @@ mod fast_tests {
 
     fn bits(v: &[f32]) -> Vec<u32> {
         v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    /// [`super::round_up_inexact`] is [`super::round_up`] without its branch: the same `f32` for
+    /// exact, inexact, tiny, huge and infinite values.
+    #[test]
+    fn round_up_inexact_is_round_up() {
+        use super::{round_up, round_up_inexact};
+        let mut vals = vec![
+            0.0,
+            f64::MIN_POSITIVE,
+            1e-45,
+            1.5e-45,
+            1.0,
+            0.1,
+            1.0 / 3.0,
+            f64::from(f32::MAX),
+            f64::from(f32::MAX) * (1.0 + 1e-12),
+            1e300,
+            f64::INFINITY,
+        ];
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            // Random magnitudes from 1e-30 to 1e30, half of them exact in f32.
+            let m = (x >> 11) as f64 / (1u64 << 53) as f64;
+            let v = 10f64.powf(m * 60.0 - 30.0);
+            vals.push(if x & 1 == 0 { f64::from(v as f32) } else { v });
+        }
+        for v in vals {
+            assert_eq!(
+                round_up_inexact(v).to_bits(),
+                round_up(v).to_bits(),
+                "{v:e}"
+            );
+            assert!(f64::from(round_up(v)) >= v, "{v:e}");
+        }
     }
 
     /// Each triangle's error from the neighbourhood paths ([`super::small_error`],

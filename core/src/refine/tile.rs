@@ -45,7 +45,7 @@
 //! a smaller square, and their square corners are forced into both tiles' meshes by the merge).
 
 use super::grid::RefineGrid;
-use super::preprocess::{self, passes, round_up};
+use super::preprocess::{self, passes, round_up_inexact};
 use super::{ErrorStore, Hierarchy, PreprocessOptions};
 use crate::{Error, Terrain};
 
@@ -391,7 +391,8 @@ fn nest_range<T: Terrain>(
             *s = e;
         }
         if rad > 0.0 {
-            let need = round_up(rad * (1.0 + preprocess::SPHERE_MARGIN) + f64::MIN_POSITIVE);
+            let need =
+                round_up_inexact(rad * (1.0 + preprocess::SPHERE_MARGIN) + f64::MIN_POSITIVE);
             if let Some(s) = radii.get_mut(idx(x, y)) {
                 *s = s.max(need);
             }
