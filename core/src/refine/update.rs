@@ -179,8 +179,8 @@ fn check_pyramid<T: Terrain>(t: &T, pyramid: &[f32]) -> Result<Layout, Error> {
 /// [`super::preprocess_with`] with a min/max block `pyramid` (at least [`pyramid_len`] floats,
 /// filled here) that prunes the error search of large triangles. Same errors and radii, bit for
 /// bit. The pyramid is what [`update`] needs; for a one-off preprocessing the plain
-/// functions need no pyramid and take about as long: within 15% either way on the DEMs of
-/// BENCHMARKS.md (Refinement), the pyramid ahead on 1025^2 and behind on 513^2.
+/// functions need no pyramid and take about as long (BENCHMARKS.md, Refinement: the pyramid
+/// 1.1-1.2x faster on a 1025^2 grid, 1.05-1.1x slower on 513^2 ones).
 ///
 /// ```
 /// use relief_core::refine::{hierarchy_len, preprocess, preprocess_pyramid, pyramid_len};
