@@ -65,30 +65,34 @@ fn main() {
     let t = Instant::now();
     black_box(preprocess(&hf, &mut e, &mut r).unwrap());
     let full_first = t.elapsed().as_secs_f64() * 1e3;
-    match std::env::var("ONLY").as_deref() {
-        // ONLY=compact or ONLY=full: that layout alone (for profiles).
-        Ok("compact") => {
-            let compact = fastest(runs, || {
-                black_box(preprocess_compact(&hf, &mut c).unwrap());
-            });
-            println!("preprocess compact {compact:8.3} ms  first call {compact_first:8.3} ms");
-            return;
-        }
-        Ok("full") => {
-            let full = fastest(runs, || {
-                black_box(preprocess(&hf, &mut e, &mut r).unwrap());
-            });
-            println!("preprocess full {full:8.3} ms  first call {full_first:8.3} ms");
-            return;
-        }
-        _ => {}
+    // ONLY=compact or ONLY=full: that layout alone (for profiles).
+    let only = std::env::var("ONLY")
+        .ok()
+        .filter(|o| o == "full" || o == "compact");
+    let wanted = |layout: &str| only.as_deref().is_none_or(|o| o == layout);
+    let full = if wanted("full") {
+        fastest(runs, || {
+            black_box(preprocess(&hf, &mut e, &mut r).unwrap());
+        })
+    } else {
+        f64::NAN
+    };
+    let compact = if wanted("compact") {
+        fastest(runs, || {
+            black_box(preprocess_compact(&hf, &mut c).unwrap());
+        })
+    } else {
+        f64::NAN
+    };
+    if let Some(layout) = only.as_deref() {
+        let (best, first) = if layout == "full" {
+            (full, full_first)
+        } else {
+            (compact, compact_first)
+        };
+        println!("preprocess {layout} {best:8.3} ms  first call {first:8.3} ms");
+        return;
     }
-    let full = fastest(runs, || {
-        black_box(preprocess(&hf, &mut e, &mut r).unwrap());
-    });
-    let compact = fastest(runs, || {
-        black_box(preprocess_compact(&hf, &mut c).unwrap());
-    });
     let mut pyr = vec![0.0f32; pyramid_len(dem.width, dem.height)];
     let (mut e2, mut r2, mut c2) = (vec![0.0f32; n], vec![0.0f32; n], vec![0u16; n]);
     let full_pyr = fastest(runs, || {

@@ -951,11 +951,9 @@ mod fast_tests {
             1e300,
             f64::INFINITY,
         ];
-        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut next = super::super::tests::rng(0x2545_f491_4f6c_dd1d);
         for _ in 0..100_000 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
+            let x = next();
             // Random magnitudes from 1e-30 to 1e30, half of them exact in f32.
             let m = (x >> 11) as f64 / (1u64 << 53) as f64;
             let v = 10f64.powf(m * 60.0 - 30.0);

@@ -2488,13 +2488,7 @@ mod fill_tests {
     /// the words past the values alone.
     #[test]
     fn fill_bits_matches_value_by_value() {
-        let mut x = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            x
-        };
+        let mut next = crate::refine::tests::rng(0x9e37_79b9_7f4a_7c15);
         for len in [0usize, 1, 7, 8, 63, 64, 65, 127, 128, 129, 1000, 4096] {
             let f: Vec<f32> = (0..len)
                 .map(|_| match next() % 8 {

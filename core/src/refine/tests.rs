@@ -7,6 +7,17 @@ use proptest::prelude::*;
 use std::vec;
 use std::vec::Vec;
 
+/// A xorshift64 generator for test data (`seed | 1`, so never stuck at zero).
+pub(crate) fn rng(seed: u64) -> impl FnMut() -> u64 {
+    let mut s = seed | 1;
+    move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        s
+    }
+}
+
 pub(crate) struct Mesh {
     pub v: Vec<[f32; 3]>,
     pub t: Vec<[u32; 3]>,

@@ -1,20 +1,10 @@
 //! Tests of the pruned preprocessing and of live edits: bit-identical to a full preprocessing.
 
-use super::tests::list;
+use super::tests::{list, rng};
 use super::*;
 use crate::Heightfield;
 use std::vec;
 use std::vec::Vec;
-
-fn rng(seed: u64) -> impl FnMut() -> u64 {
-    let mut s = seed | 1;
-    move || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        s
-    }
-}
 
 /// Smooth hills plus noise (pruning matters on smooth terrain, noise keeps the maxima varied).
 fn terrain(w: u32, h: u32, seed: u64, noise: f32) -> Vec<f32> {
