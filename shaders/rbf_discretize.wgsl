@@ -6,14 +6,22 @@
 // values relative to the containing cell's value, clamped to the values that contributed.
 // One invocation per texel, 8 x 8 workgroups; invisible texels get a given value (0 as on the
 // CPU, or far below the terrain for the cascade ray cast, so rays fall through them).
+//
+// The visible-texel mask comes from the CPU (uploaded) or from the entry point `visible`, which
+// computes it in a dispatch of its own before `discretize` reads it: a texel is visible when its
+// centre lies within `margin` of the cascade's convex ground polygon, relief_core::rbf::
+// Cascade::mask's test (every edge's signed distance at least -margin), with the edges' vectors
+// and lengths computed on the CPU, so a frame uploads the polygon instead of the mask.
 
 struct RbfParams {
-    // Grid width, height; cascade resolution; unused.
+    // Grid width, height; cascade resolution; polygon edges (for `visible`).
     dims: vec4<u32>,
     // Cascade origin (texel units, i32) and unused.
     origin: vec4<i32>,
     // Texel spacing (grid units), sigma, truncation remainder, value of invisible texels.
     misc: vec4<f32>,
+    // World units per grid unit in x and y, the mask's margin (world units), unused.
+    world: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> p: RbfParams;
@@ -24,9 +32,12 @@ struct RbfParams {
 // Influence sets: entries[offsets[j] .. offsets[j + 1]].
 @group(0) @binding(3) var<storage, read> offsets: array<u32>;
 @group(0) @binding(4) var<storage, read> entries: array<u32>;
-// Visibility mask per texel (0 or 1).
-@group(0) @binding(5) var<storage, read> mask: array<u32>;
+// Visibility mask per texel (0 or 1): read by `discretize`, written by `visible`.
+@group(0) @binding(5) var<storage, read_write> mask: array<u32>;
 @group(0) @binding(6) var<storage, read_write> values: array<f32>;
+// The polygon's edges for `visible`, two entries each: (start x, start y, edge x, edge y) and
+// (edge length, unused), world units.
+@group(0) @binding(7) var<storage, read> edges: array<vec4<f32>>;
 
 const TRUNCATION: f32 = 3.5;
 
@@ -36,6 +47,32 @@ fn gaussian(q: f32, sigma: f32) -> f32 {
         return 0.0;
     }
     return max(exp(-q / (2.0 * s2)) - p.misc.z, 0.0);
+}
+
+// The texel's centre in grid units (as in `discretize`), then in world units.
+fn texel_world(id: vec2<u32>) -> vec2<f32> {
+    let c = vec2<f32>(f32(p.origin.x + i32(id.x)), f32(p.origin.y + i32(id.y))) * p.misc.x;
+    return c * p.world.xy;
+}
+
+@compute @workgroup_size(8, 8)
+fn visible(@builtin(global_invocation_id) id: vec3<u32>) {
+    let res = p.dims.z;
+    if id.x >= res || id.y >= res {
+        return;
+    }
+    let q = texel_world(id.xy);
+    let n = p.dims.w;
+    var inside = n >= 3u;
+    for (var e = 0u; e < n; e++) {
+        let a = edges[2u * e];
+        let len = edges[2u * e + 1u].x;
+        let d = q - a.xy;
+        if len > 0.0 && (a.z * d.y - a.w * d.x) / len < -p.world.z {
+            inside = false;
+        }
+    }
+    mask[id.y * res + id.x] = select(0u, 1u, inside);
 }
 
 @compute @workgroup_size(8, 8)

@@ -192,6 +192,17 @@ fn bench_discretize(c: &mut Criterion) {
             black_box(acc)
         })
     });
+    // The visible-texel masks of the three cascades on the CPU (`Cascade::mask`): per-frame
+    // work of the GPU cascade ray cast until its masks moved into the discretization shader.
+    g.bench_function(BenchmarkId::new("mask_3x1024", visible), |b| {
+        b.iter(|| {
+            let mut total = 0;
+            for (m, k) in masks.iter_mut().zip(&fit.cascades) {
+                total += k.mask(m).unwrap();
+            }
+            black_box(total)
+        })
+    });
     g.bench_function(BenchmarkId::new("rbf_3x1024", visible), |b| {
         b.iter(|| {
             let mut total = 0;

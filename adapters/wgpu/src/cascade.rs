@@ -18,7 +18,8 @@
 //! discretization of the three cascades ([`CascadeRayCast::encode_discretize`]), their maximum
 //! mipmaps ([`CascadeRayCast::encode_maxmip`]), the three ray casts
 //! ([`CascadeRayCast::encode_rays`]) and the blend ([`CascadeRayCast::encode_blend`]). The
-//! buffers and pipelines are created once; a frame only writes parameters and masks.
+//! buffers and pipelines are created once; a frame only writes parameters and the cascades'
+//! polygons (the visible-texel masks are computed on the GPU).
 
 use crate::raycast::{RayEffects, RayOutputs, Shading};
 use crate::rbf::{RbfPass, RbfTarget};
@@ -204,8 +205,10 @@ impl CascadeRayCast {
         Ok(())
     }
 
-    /// Computes each cascade's visible-texel mask ([`Cascade::mask`], on the CPU) and records
-    /// the discretization of the three cascades ([`RbfPass::encode_into`]).
+    /// Records, for each of the three cascades, its visible-texel mask (the test of
+    /// [`Cascade::mask`], computed on the GPU from the cascade's polygon) and its
+    /// discretization ([`RbfPass::encode_into_gpu_mask`]): the CPU only writes parameters and
+    /// polygons.
     pub fn encode_discretize(
         &self,
         queue: &wgpu::Queue,
@@ -214,11 +217,8 @@ impl CascadeRayCast {
         cascades: &Cascades,
     ) -> Result<(), Error> {
         self.check(cascades, None)?;
-        let n = self.resolution as usize * self.resolution as usize;
-        let mut mask = vec![0u8; n];
         for (layer, c) in self.layers.iter().zip(&cascades.cascades) {
-            c.mask(&mut mask)?;
-            rbf.encode_into(queue, encoder, &layer.target, c, &mask, self.floor)?;
+            rbf.encode_into_gpu_mask(queue, encoder, &layer.target, c, self.floor)?;
         }
         Ok(())
     }

@@ -8,7 +8,10 @@
 
 use crate::util::{self, bind_buffers, compute_pipeline, groups, storage_entry, uniform_entry};
 use crate::Error;
-use relief_core::rbf::{gaussian_weight, Cascade, InfluenceSets, Rbf};
+use relief_core::rbf::{gaussian_weight, Cascade, InfluenceSets, Rbf, MAX_POLYGON};
+
+/// Bytes of a target's parameters (`RbfParams` in the shader).
+const PARAM_BYTES: u64 = 64;
 
 /// The adaptive grid, its index map and influence sets on the GPU, and the discretization
 /// pipeline.
@@ -45,6 +48,7 @@ pub struct RbfPass {
     entries: wgpu::Buffer,
     layout: wgpu::BindGroupLayout,
     pipeline: wgpu::ComputePipeline,
+    visible: wgpu::ComputePipeline,
 }
 
 impl RbfPass {
@@ -93,11 +97,20 @@ impl RbfPass {
                 storage_entry(2, true, cs),
                 storage_entry(3, true, cs),
                 storage_entry(4, true, cs),
-                storage_entry(5, true, cs),
+                storage_entry(5, false, cs),
                 storage_entry(6, false, cs),
+                storage_entry(7, true, cs),
             ],
         });
         let pipeline = compute_pipeline(device, "relief rbf", &layout, &module, "discretize", &[]);
+        let visible = compute_pipeline(
+            device,
+            "relief rbf visible",
+            &layout,
+            &module,
+            "visible",
+            &[],
+        );
         Ok(RbfPass {
             width: w,
             height: h,
@@ -116,11 +129,13 @@ impl RbfPass {
             ),
             layout,
             pipeline,
+            visible,
         })
     }
 
     /// Buffers for discretizing cascades of `resolution^2` texels again and again (one per
-    /// cascade of a frame): the mask, the values and the parameters, bound once.
+    /// cascade of a frame): the mask, the values, the parameters and the polygon's edges, bound
+    /// once.
     /// [`Error::Unsupported`] for a resolution of 0 or beyond the device's storage binding size.
     ///
     /// ```no_run
@@ -138,7 +153,8 @@ impl RbfPass {
         }
         let mask = util::storage(device, "relief rbf mask", n * 4);
         let values = util::storage(device, "relief rbf values", n * 4);
-        let params = util::uniform(device, "relief rbf params", 48);
+        let params = util::uniform(device, "relief rbf params", PARAM_BYTES);
+        let edges = util::storage(device, "relief rbf edges", MAX_POLYGON as u64 * 32);
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("relief rbf"),
             layout: &self.layout,
@@ -150,6 +166,7 @@ impl RbfPass {
                 &self.entries,
                 &mask,
                 &values,
+                &edges,
             ]),
         });
         Ok(RbfTarget {
@@ -157,6 +174,7 @@ impl RbfPass {
             mask,
             values,
             params,
+            edges,
             group,
         })
     }
@@ -166,6 +184,17 @@ impl RbfPass {
     /// discretization: `target.values()` gets the approximation at every visible texel centre
     /// and `invisible` elsewhere (the CPU writes 0). [`Error::Unsupported`] for a short mask, a
     /// cascade of another resolution than the target's or an origin beyond `i32`.
+    ///
+    /// ```no_run
+    /// # fn demo(gpu: &relief_wgpu::Gpu, pass: &relief_wgpu::rbf::RbfPass, c: &relief_core::rbf::Cascade) -> Result<(), Box<dyn std::error::Error>> {
+    /// let target = pass.target(&gpu.device, c.resolution)?;
+    /// let mut mask = vec![0u8; (c.resolution * c.resolution) as usize];
+    /// c.mask(&mut mask)?;
+    /// let mut enc = gpu.device.create_command_encoder(&Default::default());
+    /// pass.encode_into(&gpu.queue, &mut enc, &target, c, &mask, 0.0)?;
+    /// gpu.queue.submit([enc.finish()]);
+    /// # Ok(()) }
+    /// ```
     pub fn encode_into(
         &self,
         queue: &wgpu::Queue,
@@ -175,42 +204,114 @@ impl RbfPass {
         mask: &[u8],
         invisible: f32,
     ) -> Result<(), Error> {
+        let n = cascade.resolution as usize * cascade.resolution as usize;
+        let Some(mask) = mask.get(..n) else {
+            return Err(Error::Unsupported("mask shorter than resolution^2"));
+        };
+        self.write_params(queue, target, cascade, invisible, 0)?;
+        let mask_u32: Vec<u32> = mask.iter().map(|&m| u32::from(m != 0)).collect();
+        queue.write_buffer(&target.mask, 0, bytemuck::cast_slice(&mask_u32));
+        self.dispatch(encoder, target, &[&self.pipeline]);
+        Ok(())
+    }
+
+    /// [`Self::encode_into`] with the visible-texel mask computed on the GPU, in a dispatch
+    /// before the discretization, from the cascade's polygon ([`Cascade::mask_edges`], at most
+    /// [`MAX_POLYGON`] edges): the test of [`Cascade::mask`], so a frame uploads a few hundred
+    /// bytes instead of computing and uploading `resolution^2` mask entries on the CPU.
+    /// `target.mask()` holds the mask afterwards. A texel whose centre lies within rounding
+    /// error of the margin may come out differently from the CPU's mask (the GPU's division
+    /// and multiply-adds round differently); the tests bound that distance.
+    ///
+    /// ```no_run
+    /// # fn demo(gpu: &relief_wgpu::Gpu, pass: &relief_wgpu::rbf::RbfPass, c: &relief_core::rbf::Cascade) -> Result<(), Box<dyn std::error::Error>> {
+    /// let target = pass.target(&gpu.device, c.resolution)?;
+    /// let mut enc = gpu.device.create_command_encoder(&Default::default());
+    /// pass.encode_into_gpu_mask(&gpu.queue, &mut enc, &target, c, 0.0)?;
+    /// gpu.queue.submit([enc.finish()]);
+    /// # Ok(()) }
+    /// ```
+    pub fn encode_into_gpu_mask(
+        &self,
+        queue: &wgpu::Queue,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RbfTarget,
+        cascade: &Cascade,
+        invisible: f32,
+    ) -> Result<(), Error> {
+        let mut edges = [[0.0f32; 4]; 2 * MAX_POLYGON];
+        let mut n = 0u32;
+        for (pair, (a, e, len)) in edges.chunks_exact_mut(2).zip(cascade.mask_edges()) {
+            pair[0] = [a.x, a.y, e.x, e.y];
+            pair[1] = [len, 0.0, 0.0, 0.0];
+            n += 1;
+        }
+        self.write_params(queue, target, cascade, invisible, n)?;
+        let used = &edges[..2 * n as usize];
+        if !used.is_empty() {
+            queue.write_buffer(&target.edges, 0, bytemuck::cast_slice(used));
+        }
+        self.dispatch(encoder, target, &[&self.visible, &self.pipeline]);
+        Ok(())
+    }
+
+    /// Writes the target's parameters (`edges`: the polygon's edge count for the `visible`
+    /// entry point).
+    fn write_params(
+        &self,
+        queue: &wgpu::Queue,
+        target: &RbfTarget,
+        cascade: &Cascade,
+        invisible: f32,
+        edges: u32,
+    ) -> Result<(), Error> {
         let res = cascade.resolution;
         if res != target.resolution {
             return Err(Error::Unsupported(
                 "cascade resolution differs from the target's",
             ));
         }
-        let n = res as usize * res as usize;
-        let Some(mask) = mask.get(..n) else {
-            return Err(Error::Unsupported("mask shorter than resolution^2"));
-        };
         let origin = [
             i32::try_from(cascade.origin[0])
                 .map_err(|_| Error::Unsupported("cascade origin beyond i32"))?,
             i32::try_from(cascade.origin[1])
                 .map_err(|_| Error::Unsupported("cascade origin beyond i32"))?,
         ];
-        let mask_u32: Vec<u32> = mask.iter().map(|&m| u32::from(m != 0)).collect();
-        queue.write_buffer(&target.mask, 0, bytemuck::cast_slice(&mask_u32));
         let remainder = 1.0 - gaussian_weight(0.0, 1.0);
-        let mut p = [0u32; 12];
-        p[..4].copy_from_slice(&[self.width, self.height, res, 0]);
+        let world = cascade.world_spacing();
+        let mut p = [0u32; PARAM_BYTES as usize / 4];
+        p[..4].copy_from_slice(&[self.width, self.height, res, edges]);
         p[4] = origin[0] as u32;
         p[5] = origin[1] as u32;
         p[8] = cascade.spacing.to_bits();
         p[9] = self.sigma.to_bits();
         p[10] = remainder.to_bits();
         p[11] = invisible.to_bits();
+        p[12] = world.x.to_bits();
+        p[13] = world.y.to_bits();
+        p[14] = cascade.mask_margin().to_bits();
         queue.write_buffer(&target.params, 0, bytemuck::cast_slice(&p));
+        Ok(())
+    }
+
+    /// Records `pipelines` over the target's texels, in order, in one compute pass (each
+    /// dispatch sees the previous one's writes: wgpu orders storage writes between dispatches).
+    fn dispatch(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &RbfTarget,
+        pipelines: &[&wgpu::ComputePipeline],
+    ) {
+        let res = target.resolution;
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("relief rbf discretize"),
             timestamp_writes: None,
         });
-        pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &target.group, &[]);
-        pass.dispatch_workgroups(groups(res, 8), groups(res, 8), 1);
-        Ok(())
+        for p in pipelines {
+            pass.set_pipeline(p);
+            pass.dispatch_workgroups(groups(res, 8), groups(res, 8), 1);
+        }
     }
 
     /// Records the discretization of `cascade` into fresh buffers ([`RbfPass::target`] then
@@ -254,6 +355,7 @@ pub struct RbfTarget {
     mask: wgpu::Buffer,
     values: wgpu::Buffer,
     params: wgpu::Buffer,
+    edges: wgpu::Buffer,
     group: wgpu::BindGroup,
 }
 

@@ -74,6 +74,14 @@ fn puget() -> relief_io::Dem {
     dem
 }
 
+/// Little-endian 32-bit words of a buffer read back from the GPU.
+fn words(bytes: &[u8]) -> Vec<u32> {
+    bytes
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}
+
 fn submit(g: &Gpu, f: impl FnOnce(&mut wgpu::CommandEncoder)) {
     let mut enc = g.device.create_command_encoder(&Default::default());
     f(&mut enc);
@@ -1148,6 +1156,91 @@ fn rbf_cascade_discretization_matches_the_cpu() {
     assert!(visible_total > 1000, "{visible_total}");
 }
 
+/// The visible-texel masks computed on the GPU (`RbfPass::encode_into_gpu_mask`, what the
+/// cascade ray cast uses every frame) against the core's `Cascade::mask`: equal, except texels
+/// whose centre lies within rounding error of the margin (the shader's division and products
+/// round differently), bounded here in f64.
+#[test]
+fn gpu_visible_texel_masks_match_the_core() {
+    use relief_core::rbf::{fit_cascades, CascadeOptions, GridOptions};
+    let Some(g) = gpu() else { return };
+    let (w, h) = (257, 257);
+    let s = synthetic(w, h);
+    let (mut texels, mut visible, mut differ) = (0usize, 0usize, 0usize);
+    // Spacing 2 m, and 160 m (the Puget map's: world coordinates up to 41 km).
+    for (spacing, res) in [(2.0f32, 128u32), (160.0, 200)] {
+        let scale = Scale::default().with_spacing(spacing, spacing);
+        let hf = Heightfield::with_scale(&s, w, h, scale).unwrap();
+        let mut store = RbfBuffers::new(
+            &hf,
+            &GridOptions::default().with_max_error(2.0).with_cells(1, 32),
+        );
+        let (rbf, sets) = store.rbf();
+        let pass = relief_wgpu::rbf::RbfPass::new(&g.device, &rbf, &sets).unwrap();
+        let target = pass.target(&g.device, res).unwrap();
+        let k = spacing / 2.0;
+        let views = [
+            (Vec3::new(20.0, 30.0, 150.0), Vec3::new(400.0, 350.0, 40.0)),
+            (Vec3::new(480.0, 20.0, 60.0), Vec3::new(100.0, 300.0, 0.0)),
+            (Vec3::new(256.0, 256.0, 400.0), Vec3::new(300.0, 200.0, 0.0)),
+        ];
+        for (eye, at) in views {
+            let cam = Camera::new(eye * k, at * k, 60.0, 640, 480).unwrap();
+            let opts = CascadeOptions::default().with_resolution(res);
+            let cas = fit_cascades(&cam, rbf.grid(), &scale, (0.0, 130.0), &opts, None).unwrap();
+            assert!(cas.visible);
+            for c in &cas.cascades {
+                let n = (res * res) as usize;
+                let mut cpu = vec![0u8; n];
+                visible += c.mask(&mut cpu).unwrap();
+                submit(g, |e| {
+                    pass.encode_into_gpu_mask(&g.queue, e, &target, c, -1e6)
+                        .unwrap()
+                });
+                let bytes =
+                    relief_wgpu::read_buffer(&g.device, &g.queue, target.mask(), n as u64 * 4)
+                        .unwrap();
+                let gpu_mask = words(&bytes);
+                let values =
+                    relief_wgpu::read_buffer(&g.device, &g.queue, target.values(), n as u64 * 4)
+                        .unwrap();
+                let values: Vec<f32> = words(&values).into_iter().map(f32::from_bits).collect();
+                let margin = f64::from(c.mask_margin());
+                let ws = c.world_spacing();
+                for (t, (&m, &gm)) in cpu.iter().zip(&gpu_mask).enumerate() {
+                    texels += 1;
+                    assert!(gm <= 1, "mask entry {gm}");
+                    // The discretization read the GPU's mask: invisible texels on the floor.
+                    assert_eq!(values[t] == -1e6, gm == 0, "texel {t}: {}", values[t]);
+                    if u32::from(m) == gm {
+                        continue;
+                    }
+                    differ += 1;
+                    let q = c.texel_center(t as u32 % res, t as u32 / res) * ws;
+                    let (qx, qy) = (f64::from(q.x), f64::from(q.y));
+                    let near_margin = c.mask_edges().any(|(a, e, len)| {
+                        let (ax, ay) = (f64::from(a.x), f64::from(a.y));
+                        let d = (f64::from(e.x) * (qy - ay) - f64::from(e.y) * (qx - ax))
+                            / f64::from(len);
+                        let tol = 1e-5 * (qx.abs() + qy.abs() + ax.abs() + ay.abs() + margin);
+                        (d + margin).abs() <= tol
+                    });
+                    assert!(
+                        near_margin,
+                        "texel {t} at {q}: cpu {m}, gpu {gm}, not at the margin"
+                    );
+                }
+            }
+        }
+    }
+    eprintln!("visible-texel masks: {texels} texels, {visible} visible, {differ} differ from the core's (all within rounding of the margin)");
+    assert!(
+        visible > texels / 10 && visible < texels,
+        "{visible} of {texels}"
+    );
+    assert!(differ * 1000 <= texels, "{differ} of {texels}");
+}
+
 #[test]
 fn silhouette_map_matches_the_core_cpu_silhouette_map() {
     use relief_core::silhouette::{silhouette_map, silhouette_map_len, SilhouetteTexel};
@@ -1182,10 +1275,7 @@ fn silhouette_map_matches_the_core_cpu_silhouette_map() {
         let n = (cam.width * hf.height()) as u64;
         let bytes =
             relief_wgpu::read_buffer(&g.device, &g.queue, pass.silhouette_map(), n * 8).unwrap();
-        let gpu_map: Vec<f32> = bytes
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
+        let gpu_map: Vec<f32> = words(&bytes).into_iter().map(f32::from_bits).collect();
         let mut cpu =
             vec![SilhouetteTexel::EMPTY; silhouette_map_len(cam.width, hf.height()).unwrap()];
         silhouette_map(&hf, &cam, 1e-3, &mut cpu).unwrap();

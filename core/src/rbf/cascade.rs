@@ -326,38 +326,89 @@ impl Cascade {
         let mask = mask
             .get_mut(..n)
             .ok_or(Error::BufferTooSmall { needed: n, actual })?;
-        let poly = self.polygon();
-        let margin = self.spacing * self.dx.max(self.dy) * core::f32::consts::SQRT_2;
+        let margin = self.mask_margin();
+        let s = self.world_spacing();
         let mut count = 0;
         for (j, row) in mask.chunks_exact_mut(t).enumerate() {
             for (i, m) in row.iter_mut().enumerate() {
-                let p = self.texel_center(i as u32, j as u32);
-                let q = Vec2::new(p.x * self.dx, p.y * self.dy);
-                let inside = inside_convex(poly, q, margin);
+                let q = self.texel_center(i as u32, j as u32) * s;
+                let inside = self.polygon_len >= 3
+                    && self
+                        .mask_edges()
+                        .all(|(a, e, len)| !(len > 0.0 && e.perp_dot(q - a) / len < -margin));
                 *m = u8::from(inside);
                 count += usize::from(inside);
             }
         }
         Ok(count)
     }
-}
 
-/// Whether `q` is within `margin` of the convex counter-clockwise polygon (every edge's signed
-/// distance at least `-margin`); false for fewer than three vertices.
-fn inside_convex(poly: &[Vec2], q: Vec2, margin: f32) -> bool {
-    if poly.len() < 3 {
-        return false;
+    /// The margin of [`Self::mask`]'s test, in world units: one texel diagonal,
+    /// `spacing * max(dx, dy) * sqrt(2)`.
+    ///
+    /// ```
+    /// # use relief_core::{Camera, Scale, rbf::*};
+    /// # let cells = [Cell::new(0, 0, 64, 0.0)];
+    /// # let mut index = vec![0; 64 * 64];
+    /// # let grid = AdaptiveGrid::new(64, 64, &cells, &mut index).unwrap();
+    /// # let cam = Camera::new(glam::Vec3::new(-10.0, 30.0, 20.0), glam::Vec3::new(30.0, 30.0, 0.0), 60.0, 64, 64).unwrap();
+    /// let c = fit_cascades(&cam, &grid, &Scale::default(), (0.0, 1.0), &CascadeOptions::default(), None).unwrap();
+    /// let k = &c.cascades[1];
+    /// assert_eq!(k.mask_margin(), k.spacing * core::f32::consts::SQRT_2); // dx = dy = 1
+    /// ```
+    #[must_use]
+    pub fn mask_margin(&self) -> f32 {
+        self.spacing * self.dx.max(self.dy) * core::f32::consts::SQRT_2
     }
-    let mut prev = poly.last().copied().unwrap_or(Vec2::ZERO);
-    for &a in poly {
-        let e = a - prev;
-        let len = e.length();
-        if len > 0.0 && e.perp_dot(q - prev) / len < -margin {
-            return false;
-        }
-        prev = a;
+
+    /// World units per grid unit in x and y (the heightfield's spacing): a texel centre
+    /// ([`Self::texel_center`], grid units) times this is the point [`Self::mask`] tests.
+    ///
+    /// ```
+    /// # use relief_core::{Camera, Scale, rbf::*};
+    /// # let cells = [Cell::new(0, 0, 64, 0.0)];
+    /// # let mut index = vec![0; 64 * 64];
+    /// # let grid = AdaptiveGrid::new(64, 64, &cells, &mut index).unwrap();
+    /// # let cam = Camera::new(glam::Vec3::new(-10.0, 30.0, 20.0), glam::Vec3::new(30.0, 30.0, 0.0), 60.0, 64, 64).unwrap();
+    /// let scale = Scale::default().with_spacing(2.0, 3.0);
+    /// let c = fit_cascades(&cam, &grid, &scale, (0.0, 1.0), &CascadeOptions::default(), None).unwrap();
+    /// assert_eq!(c.cascades[0].world_spacing(), glam::Vec2::new(2.0, 3.0));
+    /// ```
+    #[must_use]
+    pub fn world_spacing(&self) -> Vec2 {
+        Vec2::new(self.dx, self.dy)
     }
-    true
+
+    /// The polygon's edges as [`Self::mask`] tests them, one per vertex: the previous vertex
+    /// `a`, the edge vector `e` to this vertex and its length. A texel centre `q` (world
+    /// units) is visible when the polygon has at least three vertices and every edge of
+    /// nonzero length has `e.perp_dot(q - a) / len >= -margin` ([`Self::mask_margin`]); a GPU
+    /// pass computes the mask from these (`relief-wgpu`'s RBF pass).
+    ///
+    /// ```
+    /// # use relief_core::{Camera, Scale, rbf::*};
+    /// # let cells = [Cell::new(0, 0, 64, 0.0)];
+    /// # let mut index = vec![0; 64 * 64];
+    /// # let grid = AdaptiveGrid::new(64, 64, &cells, &mut index).unwrap();
+    /// # let cam = Camera::new(glam::Vec3::new(-10.0, 30.0, 20.0), glam::Vec3::new(30.0, 30.0, 0.0), 60.0, 64, 64).unwrap();
+    /// let c = fit_cascades(&cam, &grid, &Scale::default(), (0.0, 1.0), &CascadeOptions::default(), None).unwrap();
+    /// let k = &c.cascades[0];
+    /// assert_eq!(k.mask_edges().count(), k.polygon().len());
+    /// let n = k.polygon().len();
+    /// // Edge k starts at vertex k - 1 (the last vertex for the first edge).
+    /// let starts = k.polygon().iter().cycle().skip(n - 1).take(n).copied();
+    /// assert!(k.mask_edges().map(|(a, _, _)| a).eq(starts));
+    /// assert!(k.mask_edges().all(|(_, e, len)| len == e.length()));
+    /// ```
+    pub fn mask_edges(&self) -> impl Iterator<Item = (Vec2, Vec2, f32)> + '_ {
+        let poly = self.polygon();
+        let last = poly.last().copied().unwrap_or(Vec2::ZERO);
+        poly.iter().scan(last, |prev, &b| {
+            let a = core::mem::replace(prev, b);
+            let e = b - a;
+            Some((a, e, e.length()))
+        })
+    }
 }
 
 /// The three cascades of a view, with the split distances.
