@@ -47,7 +47,7 @@ use crate::terrain::Crater;
 use crate::{util, Error, GpuTerrain, Method, NormalPass, RayCastPass};
 use relief_core::rbf::{
     adaptive_grid_bound, build_adaptive_grid, fit_cascades, AdaptiveGrid, CascadeOptions, Cascades,
-    Cell, GridOptions, InfluenceSets, Rbf, RbfOptions,
+    Cell, GridExtent, GridOptions, InfluenceSets, Rbf, RbfOptions,
 };
 use relief_core::{Camera, NormalMethod, Terrain};
 use std::time::Instant;
@@ -546,8 +546,9 @@ impl Caster {
 #[derive(Debug)]
 struct CascadeSource {
     rbf: RbfPass,
-    cells: Vec<Cell>,
-    index: Vec<u32>,
+    /// The adaptive grid's size and smallest cell (all that fitting needs: the grid itself is
+    /// validated once, at setup, not every frame).
+    extent: GridExtent,
     options: CascadeOptions,
     /// World height range of the approximation.
     z_range: (f32, f32),
@@ -727,19 +728,18 @@ impl Renderer {
         cells.truncate(n);
         let mut index = vec![0u32; bound];
         let ropts = RbfOptions::default();
-        let rbf = {
+        let (rbf, extent) = {
             let grid = AdaptiveGrid::new(w, h, &cells, &mut index)?;
             let mut offsets = vec![0u32; InfluenceSets::offsets_len(&grid)];
             let mut entries = vec![0u32; InfluenceSets::entries_len(&grid, &ropts)?];
             let sets = InfluenceSets::build(&grid, &ropts, &mut offsets, &mut entries)?;
             let rbf = Rbf::new(grid, sets, &ropts)?;
-            RbfPass::new(device, &rbf, &sets)?
+            (RbfPass::new(device, &rbf, &sets)?, GridExtent::from(&grid))
         };
         let z0 = gt.scale().z_offset;
         Ok(CascadeSource {
             rbf,
-            cells,
-            index,
+            extent,
             options: CascadeOptions::default().with_resolution(resolution),
             z_range: (lo + z0, hi + z0),
             current: None,
@@ -871,11 +871,9 @@ impl Renderer {
             self.caster = Some(caster);
         }
         if let Some(src) = &mut self.cascades {
-            let (w, h) = self.terrain.size();
-            let grid = AdaptiveGrid::new(w, h, &src.cells, &mut src.index)?;
             let fit = fit_cascades(
                 camera,
-                &grid,
+                src.extent,
                 &self.terrain.scale(),
                 src.z_range,
                 &src.options,

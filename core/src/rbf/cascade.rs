@@ -449,8 +449,41 @@ pub struct Cascades {
     pub z_range: [f32; 2],
 }
 
-/// Fits the three cascades of `camera` over the heightfield described by `grid` (its size and
-/// minimum cell size), `scale` (spacing) and `z_range` (lowest and highest world height).
+/// What [`fit_cascades`] needs of an adaptive grid: the heightfield's size in samples and the
+/// smallest cell size (the snapping unit). Taken from an [`AdaptiveGrid`] once
+/// (`GridExtent::from(&grid)`), it lets a renderer fit cascades every frame without keeping or
+/// re-validating the grid's per-sample index.
+///
+/// ```
+/// use relief_core::rbf::{AdaptiveGrid, Cell, GridExtent};
+/// let cells = [Cell::new(0, 0, 2, 0.0), Cell::new(2, 0, 1, 0.0), Cell::new(2, 1, 1, 0.0)];
+/// let mut index = [0; 6];
+/// let grid = AdaptiveGrid::new(3, 2, &cells, &mut index).unwrap();
+/// assert_eq!(GridExtent::from(&grid), GridExtent { width: 3, height: 2, min_cell: 1 });
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GridExtent {
+    /// Samples per row.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// Smallest cell size present, in samples (0 is read as 1).
+    pub min_cell: u32,
+}
+
+impl From<&AdaptiveGrid<'_>> for GridExtent {
+    fn from(grid: &AdaptiveGrid<'_>) -> GridExtent {
+        GridExtent {
+            width: grid.width(),
+            height: grid.height(),
+            min_cell: grid.size_range().0,
+        }
+    }
+}
+
+/// Fits the three cascades of `camera` over the heightfield described by `grid` (an
+/// [`AdaptiveGrid`] or its [`GridExtent`]: its size and minimum cell size), `scale` (spacing)
+/// and `z_range` (lowest and highest world height).
 /// `previous`, the last frame's fit, enables spacing hysteresis (module docs).
 ///
 /// Errors: [`Error::InvalidParameter`] for bad options, a non-finite or reversed `z_range`, or a
@@ -470,7 +503,7 @@ pub struct Cascades {
 /// ```
 pub fn fit_cascades(
     camera: &Camera,
-    grid: &AdaptiveGrid<'_>,
+    grid: impl Into<GridExtent>,
     scale: &Scale,
     z_range: (f32, f32),
     options: &CascadeOptions,
@@ -478,7 +511,8 @@ pub fn fit_cascades(
 ) -> Result<Cascades, Error> {
     options.validate()?;
     scale.validate()?;
-    let (w, h) = (grid.width(), grid.height());
+    let grid: GridExtent = grid.into();
+    let (w, h) = (grid.width, grid.height);
     if w < 2 || h < 2 {
         return Err(Error::TooSmall {
             width: w,
@@ -503,7 +537,7 @@ pub fn fit_cascades(
     let (f3, r3, u3) = (f3.as_dvec3(), r3.as_dvec3(), u3.as_dvec3());
     let view = DVec2::new(f3.x, f3.y).normalize_or(DVec2::X);
     let eye2 = DVec2::new(eye.x, eye.y);
-    let min_cell = f64::from(grid.size_range().0.max(1));
+    let min_cell = f64::from(grid.min_cell.max(1));
 
     // Frustum: far plane at the farthest box corner, near as chosen.
     let box_corners = corners(lo, hi);

@@ -42,7 +42,9 @@ mod discretize;
 mod grid;
 mod weight;
 
-pub use cascade::{fit_cascades, Cascade, CascadeOptions, Cascades, CASCADES, MAX_POLYGON};
+pub use cascade::{
+    fit_cascades, Cascade, CascadeOptions, Cascades, GridExtent, CASCADES, MAX_POLYGON,
+};
 pub use discretize::discretize;
 pub use grid::{
     adaptive_grid_bound, build_adaptive_grid, AdaptiveGrid, Cell, GridOptions, MAX_CELL_SIZE,
