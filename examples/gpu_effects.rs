@@ -5,7 +5,9 @@
 //! `Renderer::render_profiled`: GPU timestamps between the passes of one submission where the
 //! adapter has them, else wall-clock per pass; setup passes excluded). Silhouette partitioning
 //! needs the whole terrain in front of the camera, so it is measured from a second camera south
-//! of the map against the bare frame from that camera.
+//! of the map against the bare frame from that camera. The last column is the CPU's own time
+//! per frame recording the passes (`PassTiming::cpu_ms`: queue writes, CPU-side work, command
+//! recording), which GPU timestamps do not see.
 //!
 //! ```sh
 //! cargo run --release -p relief-examples --example gpu_effects -- data/puget_sound_1k.png 640x360 15
@@ -99,6 +101,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     // Warm-up frame (setup passes, pipeline compilation), then timed rounds.
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); scenes.len()];
+    let mut record: Vec<Vec<f64>> = vec![Vec::new(); scenes.len()];
     let mut passes: Vec<String> = vec![String::new(); scenes.len()];
     for (_, r, c, _) in scenes.iter_mut() {
         r.render(&gpu.device, &gpu.queue, c)?;
@@ -107,6 +110,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (k, (_, r, c, _)) in scenes.iter_mut().enumerate() {
             let (_, t) = r.render_profiled(&gpu.device, &gpu.queue, c)?;
             times[k].push(t.iter().map(|p| p.ms).sum());
+            record[k].push(t.iter().map(|p| p.cpu_ms).sum());
             passes[k] = t
                 .iter()
                 .map(|p| p.pass.as_str())
@@ -119,20 +123,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         v[v.len() / 2]
     };
     let meds: Vec<f64> = times.iter_mut().map(median).collect();
+    let recs: Vec<f64> = record.iter_mut().map(median).collect();
     println!(
         "device: {} ({:?}) | image {w} x {h} | median of {rounds} round-robin rounds | pass times: {} clock\n",
         gpu.info.name,
         gpu.info.backend,
         scenes[0].1.clock().as_str()
     );
-    println!("| scene | passes per frame | frame ms (median) | vs bare frame |");
-    println!("|---|---|---|---|");
+    println!("| scene | passes per frame | frame ms (median) | vs bare frame | CPU recording ms (median) |");
+    println!("|---|---|---|---|---|");
     for (k, (name, _, _, b)) in scenes.iter().enumerate() {
         println!(
-            "| {name} | {} | {:.1} | {:.2}x |",
+            "| {name} | {} | {:.1} | {:.2}x | {:.3} |",
             passes[k],
             meds[k],
-            meds[k] / meds[*b]
+            meds[k] / meds[*b],
+            recs[k]
         );
     }
     Ok(())

@@ -219,6 +219,18 @@ fn gpu_and_cpu_depth_agree_and_json_lists_the_passes() {
         assert!(j["timing"] == "gpu" || j["timing"] == "wall", "{j}");
     }
     assert_eq!(cpu["timing"], "wall");
+    // The CPU's recording time of a GPU scene's frame: positive and within the frame's pass
+    // times when those are wall-clock (each pass's wall time includes its recording); none for
+    // the CPU backend or the mesh method (not a Scene).
+    for j in [&gpu, &lit, &v] {
+        let rec = j["record_ms"].as_f64().unwrap();
+        assert!(rec > 0.0, "{j}");
+        if j["timing"] == "wall" {
+            assert!(rec <= j["frame_ms"].as_f64().unwrap(), "{j}");
+        }
+    }
+    assert_eq!(cpu["record_ms"], serde_json::Value::Null);
+    assert_eq!(mesh["record_ms"], serde_json::Value::Null);
     assert_eq!(gpu["reads_per_pixel"], serde_json::Value::Null);
     // The RBF cascade ray cast (seed 002): its four passes, and a depth image close to the
     // exact ray cast of the DEM it approximates.

@@ -509,6 +509,11 @@ pub struct PassTiming {
     pub ms: f64,
     /// Where the time comes from.
     pub clock: Clock,
+    /// Milliseconds the CPU spent recording the pass: its queue writes, its CPU-side work
+    /// (for example the cascades' parameters) and the command recording, wall-clock, without
+    /// waiting for the GPU. The frame's preparation before the first pass (fitting the
+    /// cascades) is not included.
+    pub cpu_ms: f64,
 }
 
 /// A frame read back to the CPU.
@@ -1002,8 +1007,11 @@ impl Renderer {
                     label: Some("relief frame (timed)"),
                 });
                 enc.write_timestamp(&ts.set, 0);
+                let mut cpu = Vec::with_capacity(plan.len());
                 for (k, &p) in plan.iter().enumerate() {
+                    let start = Instant::now();
                     self.encode_pass(p, queue, &mut enc, camera)?;
+                    cpu.push(start.elapsed().as_secs_f64() * 1e3);
                     enc.write_timestamp(&ts.set, k as u32 + 1);
                 }
                 let n = plan.len() as u32 + 1;
@@ -1018,10 +1026,12 @@ impl Renderer {
                 let period = f64::from(queue.get_timestamp_period());
                 plan.iter()
                     .zip(ticks.windows(2))
-                    .map(|(&pass, t)| PassTiming {
+                    .zip(cpu)
+                    .map(|((&pass, t), cpu_ms)| PassTiming {
                         pass,
                         ms: t[1].saturating_sub(t[0]) as f64 * period * 1e-6,
                         clock: Clock::Gpu,
+                        cpu_ms,
                     })
                     .collect()
             }
@@ -1035,6 +1045,7 @@ impl Renderer {
                     let start = Instant::now();
                     let mut enc = device.create_command_encoder(&Default::default());
                     self.encode_pass(p, queue, &mut enc, camera)?;
+                    let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
                     queue.submit([enc.finish()]);
                     device
                         .poll(wgpu::PollType::wait_indefinitely())
@@ -1043,6 +1054,7 @@ impl Renderer {
                         pass: p,
                         ms: start.elapsed().as_secs_f64() * 1e3,
                         clock: Clock::Wall,
+                        cpu_ms,
                     });
                 }
                 times

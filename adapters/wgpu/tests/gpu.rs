@@ -1694,6 +1694,15 @@ fn pass_times_come_from_gpu_timestamps_when_the_device_has_them() {
             .all(|t| t.clock == clock && t.ms.is_finite() && t.ms >= 0.0));
         let total: f64 = times.iter().map(|t| t.ms).sum();
         eprintln!("{clock:?} pass times {times:?}: {total:.3} ms of {elapsed:.3} ms wall");
+        // Recording time: part of the frame's wall time and, on the wall clock, of each pass's.
+        let cpu: f64 = times.iter().map(|t| t.cpu_ms).sum();
+        assert!(times
+            .iter()
+            .all(|t| t.cpu_ms.is_finite() && t.cpu_ms >= 0.0));
+        assert!(cpu > 0.0 && cpu <= elapsed, "{cpu} ms vs {elapsed} ms");
+        if wall {
+            assert!(times.iter().all(|t| t.cpu_ms <= t.ms), "{times:?}");
+        }
         if clock == relief_wgpu::Clock::Wall || !cpu_adapter {
             assert!(
                 total > 0.0 && total <= elapsed,

@@ -136,6 +136,9 @@ pub(crate) struct Rendered {
     setup: Vec<(String, f64)>,
     /// Per-frame passes with their milliseconds.
     pub(crate) passes: Vec<(String, f64)>,
+    /// GPU scenes: the CPU's time recording a frame's passes (`PassTiming::cpu_ms` summed,
+    /// median over frames).
+    record_ms: Option<f64>,
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -252,6 +255,7 @@ fn render_gpu(
             cascades: None,
             setup,
             passes: medians(&frames),
+            record_ms: None,
         });
     }
     let method = match a.method {
@@ -305,6 +309,7 @@ fn render_gpu(
     let mut frames = Vec::new();
     let mut setup = Vec::new();
     let mut image = None;
+    let mut record = Vec::new();
     for k in 0..a.repeat.max(1) {
         let (img, times) = r.render_profiled(&gpu.device, &gpu.queue, camera)?;
         let n_setup = if k == 0 {
@@ -312,6 +317,7 @@ fn render_gpu(
         } else {
             0
         };
+        record.push(times.iter().skip(n_setup).map(|t| t.cpu_ms).sum::<f64>());
         let named: Vec<(String, f64)> = times
             .iter()
             .map(|t| (t.pass.as_str().to_string(), t.ms))
@@ -347,6 +353,7 @@ fn render_gpu(
         }),
         setup,
         passes: medians(&frames),
+        record_ms: Some(median(&mut record)),
     })
 }
 
@@ -589,6 +596,7 @@ pub(crate) fn render_cpu(
         cascades: None,
         setup,
         passes,
+        record_ms: None,
     })
 }
 
@@ -634,6 +642,7 @@ fn render_cpu_silhouette(
         cascades: None,
         setup: Vec::new(),
         passes: vec![("silhouette_trace".to_string(), trace_ms)],
+        record_ms: None,
     })
 }
 
@@ -732,6 +741,7 @@ pub fn run(a: &RenderArgs) -> CliResult {
             "setup_passes": list(&r.setup),
             "passes": list(&r.passes),
             "frame_ms": frame_ms,
+            "record_ms": r.record_ms,
         });
         print_out(&format!("{v}\n"))
     } else {
@@ -754,6 +764,11 @@ pub fn run(a: &RenderArgs) -> CliResult {
             s.push_str(&format!("  pass  {n:<14} {ms:9.2} ms\n"));
         }
         s.push_str(&format!("  frame total          {frame_ms:9.2} ms\n"));
+        if let Some(ms) = r.record_ms {
+            s.push_str(&format!(
+                "  CPU recording        {ms:9.2} ms (queue writes and commands)\n"
+            ));
+        }
         print_out(&s)
     }
 }
