@@ -37,6 +37,8 @@
 //! adapters only: Mesa's lavapipe offers them, but its timestamps do not wait for running
 //! compute work (measured: with several renderers on one device, a 640 x 360 ray-cast pass
 //! that takes about 150 ms read 0.03 ms), so on a CPU adapter the wall clock is the honest one.
+//! Each pass also reports the CPU's own time recording it ([`PassTiming::cpu_ms`]), which
+//! GPU timestamps do not see: a pass whose CPU side is heavy shows there on any device.
 
 use crate::cascade::CascadeRayCast;
 use crate::mesh::{DepthTarget, ResolvePass};
