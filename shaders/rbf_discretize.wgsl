@@ -49,10 +49,9 @@ fn gaussian(q: f32, sigma: f32) -> f32 {
     return max(exp(-q / (2.0 * s2)) - p.misc.z, 0.0);
 }
 
-// The texel's centre in grid units (as in `discretize`), then in world units.
-fn texel_world(id: vec2<u32>) -> vec2<f32> {
-    let c = vec2<f32>(f32(p.origin.x + i32(id.x)), f32(p.origin.y + i32(id.y))) * p.misc.x;
-    return c * p.world.xy;
+// The texel's centre in grid units (relief_core::rbf::Cascade::texel_center).
+fn texel_center(id: vec2<u32>) -> vec2<f32> {
+    return vec2<f32>(f32(p.origin.x + i32(id.x)), f32(p.origin.y + i32(id.y))) * p.misc.x;
 }
 
 @compute @workgroup_size(8, 8)
@@ -61,7 +60,7 @@ fn visible(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= res || id.y >= res {
         return;
     }
-    let q = texel_world(id.xy);
+    let q = texel_center(id.xy) * p.world.xy;
     let n = p.dims.w;
     var inside = n >= 3u;
     for (var e = 0u; e < n; e++) {
@@ -70,6 +69,7 @@ fn visible(@builtin(global_invocation_id) id: vec3<u32>) {
         let d = q - a.xy;
         if len > 0.0 && (a.z * d.y - a.w * d.x) / len < -p.world.z {
             inside = false;
+            break;
         }
     }
     mask[id.y * res + id.x] = select(0u, 1u, inside);
@@ -88,8 +88,7 @@ fn discretize(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let w = p.dims.x;
     let h = p.dims.y;
-    let texel = vec2<f32>(f32(p.origin.x + i32(id.x)), f32(p.origin.y + i32(id.y))) * p.misc.x;
-    let pt = clamp(texel, vec2<f32>(-0.5), vec2<f32>(f32(w) - 0.5, f32(h) - 0.5));
+    let pt = clamp(texel_center(id.xy), vec2<f32>(-0.5), vec2<f32>(f32(w) - 0.5, f32(h) - 0.5));
     let sx = u32(clamp(floor(pt.x + 0.5), 0.0, f32(w - 1u)));
     let sy = u32(clamp(floor(pt.y + 0.5), 0.0, f32(h - 1u)));
     let j = index[sy * w + sx];

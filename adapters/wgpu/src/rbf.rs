@@ -211,7 +211,7 @@ impl RbfPass {
         self.write_params(queue, target, cascade, invisible, 0)?;
         let mask_u32: Vec<u32> = mask.iter().map(|&m| u32::from(m != 0)).collect();
         queue.write_buffer(&target.mask, 0, bytemuck::cast_slice(&mask_u32));
-        self.dispatch(encoder, target, &[&self.pipeline]);
+        dispatch(encoder, target, &[&self.pipeline]);
         Ok(())
     }
 
@@ -251,7 +251,7 @@ impl RbfPass {
         if !used.is_empty() {
             queue.write_buffer(&target.edges, 0, bytemuck::cast_slice(used));
         }
-        self.dispatch(encoder, target, &[&self.visible, &self.pipeline]);
+        dispatch(encoder, target, &[&self.visible, &self.pipeline]);
         Ok(())
     }
 
@@ -294,26 +294,6 @@ impl RbfPass {
         Ok(())
     }
 
-    /// Records `pipelines` over the target's texels, in order, in one compute pass (each
-    /// dispatch sees the previous one's writes: wgpu orders storage writes between dispatches).
-    fn dispatch(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &RbfTarget,
-        pipelines: &[&wgpu::ComputePipeline],
-    ) {
-        let res = target.resolution;
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("relief rbf discretize"),
-            timestamp_writes: None,
-        });
-        pass.set_bind_group(0, &target.group, &[]);
-        for p in pipelines {
-            pass.set_pipeline(p);
-            pass.dispatch_workgroups(groups(res, 8), groups(res, 8), 1);
-        }
-    }
-
     /// Records the discretization of `cascade` into fresh buffers ([`RbfPass::target`] then
     /// [`RbfPass::encode_into`]) and returns the values buffer (`resolution^2` `f32`,
     /// row-major, `invisible` where the mask is 0; the CPU writes 0). [`Error::Unsupported`]
@@ -345,6 +325,25 @@ impl RbfPass {
         queue.submit([enc.finish()]);
         let n = cascade.resolution as u64 * cascade.resolution as u64 * 4;
         Ok(util::f32s(&util::read_buffer(device, queue, &values, n)?))
+    }
+}
+
+/// Records `pipelines` over the target's texels, in order, in one compute pass (each
+/// dispatch sees the previous one's writes: wgpu orders storage writes between dispatches).
+fn dispatch(
+    encoder: &mut wgpu::CommandEncoder,
+    target: &RbfTarget,
+    pipelines: &[&wgpu::ComputePipeline],
+) {
+    let res = target.resolution;
+    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+        label: Some("relief rbf discretize"),
+        timestamp_writes: None,
+    });
+    pass.set_bind_group(0, &target.group, &[]);
+    for p in pipelines {
+        pass.set_pipeline(p);
+        pass.dispatch_workgroups(groups(res, 8), groups(res, 8), 1);
     }
 }
 

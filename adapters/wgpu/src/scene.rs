@@ -891,6 +891,19 @@ impl Renderer {
         Ok(())
     }
 
+    /// [`Self::encode_pass`] and the milliseconds the CPU spent in it ([`PassTiming::cpu_ms`]).
+    fn encode_pass_timed(
+        &self,
+        pass: PassName,
+        queue: &wgpu::Queue,
+        enc: &mut wgpu::CommandEncoder,
+        camera: &Camera,
+    ) -> Result<f64, Error> {
+        let start = Instant::now();
+        self.encode_pass(pass, queue, enc, camera)?;
+        Ok(start.elapsed().as_secs_f64() * 1e3)
+    }
+
     fn encode_pass(
         &self,
         pass: PassName,
@@ -1011,9 +1024,7 @@ impl Renderer {
                 enc.write_timestamp(&ts.set, 0);
                 let mut cpu = Vec::with_capacity(plan.len());
                 for (k, &p) in plan.iter().enumerate() {
-                    let start = Instant::now();
-                    self.encode_pass(p, queue, &mut enc, camera)?;
-                    cpu.push(start.elapsed().as_secs_f64() * 1e3);
+                    cpu.push(self.encode_pass_timed(p, queue, &mut enc, camera)?);
                     enc.write_timestamp(&ts.set, k as u32 + 1);
                 }
                 let n = plan.len() as u32 + 1;
@@ -1046,8 +1057,7 @@ impl Renderer {
                 for &p in &plan {
                     let start = Instant::now();
                     let mut enc = device.create_command_encoder(&Default::default());
-                    self.encode_pass(p, queue, &mut enc, camera)?;
-                    let cpu_ms = start.elapsed().as_secs_f64() * 1e3;
+                    let cpu_ms = self.encode_pass_timed(p, queue, &mut enc, camera)?;
                     queue.submit([enc.finish()]);
                     device
                         .poll(wgpu::PollType::wait_indefinitely())

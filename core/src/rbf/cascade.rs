@@ -328,14 +328,22 @@ impl Cascade {
             .ok_or(Error::BufferTooSmall { needed: n, actual })?;
         let margin = self.mask_margin();
         let s = self.world_spacing();
+        // The edges once per mask, not once per texel (a square root each).
+        let mut edges = [(Vec2::ZERO, Vec2::ZERO, 0.0f32); MAX_POLYGON];
+        let mut n = 0;
+        for (slot, edge) in edges.iter_mut().zip(self.mask_edges()) {
+            *slot = edge;
+            n += 1;
+        }
+        let edges = edges.get(..n).unwrap_or(&[]);
         let mut count = 0;
         for (j, row) in mask.chunks_exact_mut(t).enumerate() {
             for (i, m) in row.iter_mut().enumerate() {
                 let q = self.texel_center(i as u32, j as u32) * s;
-                let inside = self.polygon_len >= 3
-                    && self
-                        .mask_edges()
-                        .all(|(a, e, len)| !(len > 0.0 && e.perp_dot(q - a) / len < -margin));
+                let inside = n >= 3
+                    && edges
+                        .iter()
+                        .all(|&(a, e, len)| !(len > 0.0 && e.perp_dot(q - a) / len < -margin));
                 *m = u8::from(inside);
                 count += usize::from(inside);
             }
