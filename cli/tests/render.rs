@@ -115,10 +115,30 @@ fn gpu_and_cpu_depth_agree_and_json_lists_the_passes() {
     );
     assert_eq!(pass_names(&lit, "passes"), ["raycast", "depth_resolve"]);
     assert_eq!(ld, gd, "lighting and fog do not move the surface");
-    let Some((mesh, _)) = render(dir.path(), "mesh", &["--method", "mesh"]) else {
+    let Some((mesh, md)) = render(dir.path(), "mesh", &["--method", "mesh"]) else {
         return;
     };
     assert_eq!(pass_names(&mesh, "passes"), ["refine", "mesh"]);
+    // The grid's vertices uploaded once (setup), each frame only its grid indices; the indexed
+    // list (the path of grids too large for one device buffer) draws the same picture.
+    assert_eq!(
+        pass_names(&mesh, "setup_passes"),
+        ["preprocess", "grid_vertices"]
+    );
+    let args = ["--method", "mesh", "--mesh-list"];
+    let Some((list, listd)) = render(dir.path(), "mesh_list", &args) else {
+        return;
+    };
+    assert_eq!(pass_names(&list, "setup_passes"), ["preprocess"]);
+    assert!(md.iter().any(|d| d.is_finite()), "the mesh covers no pixel");
+    assert!(md
+        .iter()
+        .zip(&listd)
+        .all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert_eq!(
+        read_png(&dir.path().join("mesh.png")),
+        read_png(&dir.path().join("mesh_list.png"))
+    );
     // Silhouette partitioning needs the terrain in front: a camera south of the map.
     let dem = bundled();
     let png = dir.path().join("sil.png").display().to_string();

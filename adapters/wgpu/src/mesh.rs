@@ -232,7 +232,7 @@ pub enum MeshStyle {
 /// let gpu = relief_wgpu::headless()?;
 /// let target = DepthTarget::new(&gpu.device, 64, 64);
 /// let mut mesh = MeshPass::new(&gpu.device);
-/// mesh.upload(&gpu.device, &gpu.queue, &[[0.0, -5.0, -5.0], [0.0, 5.0, -5.0], [0.0, 0.0, 5.0]], &[0, 1, 2]);
+/// mesh.upload(&gpu.device, &gpu.queue, &[[0.0, -5.0, -5.0], [0.0, 5.0, -5.0], [0.0, 0.0, 5.0]], &[0, 1, 2])?;
 /// let cam = Camera::new(Vec3::new(-10.0, 0.0, 0.0), Vec3::ZERO, 60.0, 64, 64)?;
 /// let mut enc = gpu.device.create_command_encoder(&Default::default());
 /// mesh.encode(&gpu.queue, &mut enc, &target, &cam, MeshStyle::Flat([1.0, 0.0, 0.0]), (0.0, 1.0), true)?;
@@ -257,15 +257,40 @@ pub struct MeshPass {
     ambient: f32,
 }
 
-fn grow(device: &wgpu::Device, buf: &mut wgpu::Buffer, need: u64, usage: wgpu::BufferUsages) {
+/// Grows `buf` to hold `need` bytes: the next power of two (at least 256), capped at the
+/// device's `max_buffer_size`. [`Error::Unsupported`] when `need` itself is over that limit (a
+/// buffer wgpu would refuse with a validation error, which panics in its default handler); the
+/// buffer is then left as it was.
+fn grow(
+    device: &wgpu::Device,
+    buf: &mut wgpu::Buffer,
+    need: u64,
+    usage: wgpu::BufferUsages,
+) -> Result<(), Error> {
+    let limit = device.limits().max_buffer_size;
+    if need > limit {
+        return Err(too_large(usage));
+    }
     if buf.size() < need {
+        // `limit` is a multiple of 4 on every backend; the size stays one for `write_buffer`.
+        let size = need.next_power_of_two().max(256).min(limit & !3);
         *buf = device.create_buffer(&wgpu::BufferDescriptor {
             label: buf_label(usage),
-            size: need.next_power_of_two().max(256),
+            size,
             usage: usage | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
     }
+    Ok(())
+}
+
+/// The error for a buffer of `usage` over the device's limit.
+fn too_large(usage: wgpu::BufferUsages) -> Error {
+    Error::Unsupported(if usage.contains(wgpu::BufferUsages::INDEX) {
+        "mesh indices larger than the device's max_buffer_size"
+    } else {
+        "mesh vertices larger than the device's max_buffer_size"
+    })
 }
 
 /// Grows `buf` to hold `bytes` ([`grow`]) and writes them at its start (nothing for none).
@@ -275,11 +300,12 @@ fn write_growing(
     buf: &mut wgpu::Buffer,
     bytes: &[u8],
     usage: wgpu::BufferUsages,
-) {
-    grow(device, buf, bytes.len() as u64, usage);
+) -> Result<(), Error> {
+    grow(device, buf, bytes.len() as u64, usage)?;
     if !bytes.is_empty() {
         queue.write_buffer(buf, 0, bytes);
     }
+    Ok(())
 }
 
 fn buf_label(usage: wgpu::BufferUsages) -> Option<&'static str> {
@@ -404,14 +430,16 @@ impl MeshPass {
 
     /// Uploads this frame's mesh: world positions and a triangle list (three indices per
     /// triangle, e.g. [`relief_core::refine::Refiner::triangles`]). Queue writes only (no
-    /// stall); the buffers grow to the next power of two when the mesh does not fit.
+    /// stall); the buffers grow to the next power of two when the mesh does not fit (capped at
+    /// the device's `max_buffer_size`). [`Error::Unsupported`] when the vertices or indices are
+    /// larger than that limit: nothing is uploaded and the previous mesh stays.
     pub fn upload(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         vertices: &[[f32; 3]],
         indices: &[u32],
-    ) {
+    ) -> Result<(), Error> {
         self.upload_bytes(
             device,
             queue,
@@ -419,23 +447,25 @@ impl MeshPass {
             indices,
             false,
             false,
-        );
+        )
     }
 
     /// Uploads every sample of `terrain` as a vertex, index `y * width + x`, at its
     /// [`relief_core::Terrain::position`] (the position [`relief_core::refine::Refiner::triangles`]
     /// gives a vertex, bit for bit): the vertex buffer that
     /// [`MeshPass::upload_grid_triangles`] indexes. Upload it once per terrain (and again after
-    /// an edit); each frame then writes only its indices.
+    /// an edit); each frame then writes only its indices. [`Error::Unsupported`] when the
+    /// grid's vertices (12 bytes a sample) are larger than the device's `max_buffer_size`:
+    /// draw such a terrain with [`MeshPass::upload`] (only the frame's vertices) instead.
     ///
     /// ```no_run
     /// # fn f(device: &wgpu::Device, queue: &wgpu::Queue, rf: &relief_core::refine::Refiner<'_, '_, relief_core::Heightfield<'_, f32>>, hf: &relief_core::Heightfield<'_, f32>) {
     /// use relief_core::Terrain;
     /// let mut mesh = relief_wgpu::MeshPass::new(device);
-    /// mesh.upload_grid_vertices(device, queue, hf);
+    /// mesh.upload_grid_vertices(device, queue, hf).unwrap();
     /// let mut tris = vec![[0u32; 3]; relief_core::refine::triangle_bound(hf.width(), hf.height())];
     /// let n = rf.grid_triangles(&mut tris).unwrap();
-    /// mesh.upload_grid_triangles(device, queue, bytemuck::cast_slice(&tris[..n]));
+    /// mesh.upload_grid_triangles(device, queue, bytemuck::cast_slice(&tris[..n])).unwrap();
     /// # }
     /// ```
     pub fn upload_grid_vertices<T: relief_core::Terrain>(
@@ -443,8 +473,16 @@ impl MeshPass {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         terrain: &T,
-    ) {
+    ) -> Result<(), Error> {
         let (w, h) = (terrain.width(), terrain.height());
+        // Checked before the vertices are built (a grid past the limit may not fit in memory
+        // either).
+        let bytes = u64::from(w) * u64::from(h) * 12;
+        if bytes > device.limits().max_buffer_size {
+            return Err(Error::Unsupported(
+                "grid vertices larger than the device's max_buffer_size",
+            ));
+        }
         let vb: Vec<[f32; 3]> = (0..h)
             .flat_map(|y| (0..w).map(move |x| (x, y)))
             .filter_map(|(x, y)| terrain.position(x, y))
@@ -456,31 +494,33 @@ impl MeshPass {
             &mut self.vertices,
             bytemuck::cast_slice(&vb),
             wgpu::BufferUsages::VERTEX,
-        );
+        )?;
         self.morph = false;
+        Ok(())
     }
 
     /// Uploads this frame's triangle list as indices into the grid vertices of
     /// [`MeshPass::upload_grid_vertices`] (e.g. [`relief_core::refine::Refiner::grid_triangles`]):
-    /// only the index buffer is written.
+    /// only the index buffer is written. Errors as [`MeshPass::upload`].
     pub fn upload_grid_triangles(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         indices: &[u32],
-    ) {
-        self.upload_bytes(device, queue, None, indices, false, false);
+    ) -> Result<(), Error> {
+        self.upload_bytes(device, queue, None, indices, false, false)
     }
 
     /// Uploads a generalized triangle strip (e.g. [`relief_core::refine::Refiner::inout_strip`]:
-    /// every three consecutive indices form a triangle, degenerate ones included).
+    /// every three consecutive indices form a triangle, degenerate ones included). Errors as
+    /// [`MeshPass::upload`].
     pub fn upload_strip(
         &mut self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
         vertices: &[[f32; 3]],
         strip: &[u32],
-    ) {
+    ) -> Result<(), Error> {
         self.upload_bytes(
             device,
             queue,
@@ -488,12 +528,13 @@ impl MeshPass {
             strip,
             true,
             false,
-        );
+        )
     }
 
     /// Uploads geomorphing vertices ([`relief_core::refine::Refiner::morph`], in the vertex order
     /// of [`relief_core::refine::Refiner::triangles`]) with a triangle list (`strip = false`) or
-    /// strip: the vertex shader draws each at `base_z + morph (z - base_z)`.
+    /// strip: the vertex shader draws each at `base_z + morph (z - base_z)`. Errors as
+    /// [`MeshPass::upload`].
     pub fn upload_morph(
         &mut self,
         device: &wgpu::Device,
@@ -501,7 +542,7 @@ impl MeshPass {
         vertices: &[relief_core::refine::MorphVertex],
         indices: &[u32],
         strip: bool,
-    ) {
+    ) -> Result<(), Error> {
         self.upload_bytes(
             device,
             queue,
@@ -509,7 +550,7 @@ impl MeshPass {
             indices,
             strip,
             true,
-        );
+        )
     }
 
     fn upload_bytes(
@@ -520,19 +561,32 @@ impl MeshPass {
         indices: &[u32],
         strip: bool,
         morph: bool,
-    ) {
+    ) -> Result<(), Error> {
+        let ib: &[u8] = bytemuck::cast_slice(indices);
+        // Both checked before either buffer changes, so a refused mesh leaves the last one.
+        let limit = device.limits().max_buffer_size;
+        if ib.len() as u64 > limit {
+            return Err(too_large(wgpu::BufferUsages::INDEX));
+        }
+        if u32::try_from(indices.len()).is_err() {
+            return Err(Error::Unsupported(
+                "more mesh indices than a u32 draw count",
+            ));
+        }
+        if vb.is_some_and(|v| v.len() as u64 > limit) {
+            return Err(too_large(wgpu::BufferUsages::VERTEX));
+        }
         if let Some(vb) = vb {
             let usage = wgpu::BufferUsages::VERTEX;
-            write_growing(device, queue, &mut self.vertices, vb, usage);
+            write_growing(device, queue, &mut self.vertices, vb, usage)?;
         }
-        let ib: &[u8] = bytemuck::cast_slice(indices);
         write_growing(
             device,
             queue,
             &mut self.indices,
             ib,
             wgpu::BufferUsages::INDEX,
-        );
+        )?;
         self.strip = strip;
         self.morph = morph;
         self.index_count = if strip {
@@ -544,6 +598,7 @@ impl MeshPass {
         } else {
             indices.len() as u32 / 3 * 3
         };
+        Ok(())
     }
 
     /// Records the draw into `target`. `clear` clears colour (sky) and depth (0) first; without

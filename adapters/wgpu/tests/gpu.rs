@@ -442,7 +442,7 @@ fn mesh_pass_with_reversed_z_matches_cpu_ray_mesh_intersection() {
         for c in cameras(&hf) {
             let cam = Camera::new(c.eye, c.target, c.fov_deg, 128, 96).unwrap();
             let target = DepthTarget::new(&g.device, cam.width, cam.height);
-            mesh.upload(&g.device, &g.queue, &verts, &idx);
+            mesh.upload(&g.device, &g.queue, &verts, &idx).unwrap();
             submit(g, |e| {
                 mesh.encode(
                     &g.queue,
@@ -541,7 +541,8 @@ fn depth_output_lets_terrain_and_meshes_occlude_each_other() {
         [200.0, 0.0, 110.0],
     ];
     let mut mesh = MeshPass::new(&g.device);
-    mesh.upload(&g.device, &g.queue, &quad, &[0, 1, 2, 0, 2, 3]);
+    mesh.upload(&g.device, &g.queue, &quad, &[0, 1, 2, 0, 2, 3])
+        .unwrap();
     submit(g, |e| {
         t.encode_maxmip(e);
         rays.encode(&g.queue, e, &t, &cam, &Shading::default())
@@ -876,7 +877,8 @@ fn mesh_pass_draws_strips_geomorphs_and_grid_triangles_like_the_cpu() {
         tris.len() / 3,
         c.triangles
     );
-    mesh.upload_strip(&g.device, &g.queue, &verts, &strip);
+    mesh.upload_strip(&g.device, &g.queue, &verts, &strip)
+        .unwrap();
     let (frac, bad) = mesh_agreement(g, &mesh, &cam, &verts, &tris);
     eprintln!(
         "strip ({} indices, {} triangles): depth agreement {frac:.6} ({bad})",
@@ -912,7 +914,8 @@ fn mesh_pass_draws_strips_geomorphs_and_grid_triangles_like_the_cpu() {
         })
         .collect();
     let idx: Vec<u32> = tris[..c.triangles].iter().flatten().copied().collect();
-    mesh.upload_morph(&g.device, &g.queue, &morph, &idx, false);
+    mesh.upload_morph(&g.device, &g.queue, &morph, &idx, false)
+        .unwrap();
     let (frac, bad) = mesh_agreement(g, &mesh, &cam, &morphed, &idx);
     eprintln!("geomorph ({partial} vertices mid-morph): depth agreement {frac:.6} ({bad})");
     assert!(frac >= 0.999, "geomorph: {frac} ({bad})");
@@ -923,7 +926,9 @@ fn mesh_pass_draws_strips_geomorphs_and_grid_triangles_like_the_cpu() {
 
     // Grid triangles: every sample uploaded once as a vertex, each frame only its indices.
     let mut on_grid = MeshPass::new(&g.device);
-    on_grid.upload_grid_vertices(&g.device, &g.queue, &hf);
+    on_grid
+        .upload_grid_vertices(&g.device, &g.queue, &hf)
+        .unwrap();
     let mut grid = vec![[0u32; 3]; triangle_bound(w, h)];
     for (k, tau) in [0.5f32, 4.0].into_iter().enumerate() {
         let rf = Refiner::new(&hier, &hf, Criterion::View(View::new(&cam, tau).unwrap())).unwrap();
@@ -932,8 +937,11 @@ fn mesh_pass_draws_strips_geomorphs_and_grid_triangles_like_the_cpu() {
         let n = rf.grid_triangles(&mut grid).unwrap();
         assert_eq!(n, c.triangles);
         assert!(n > 100, "{n} triangles");
-        on_grid.upload_grid_triangles(&g.device, &g.queue, bytemuck::cast_slice(&grid[..n]));
-        mesh.upload(&g.device, &g.queue, &verts[..c.vertices], &idx);
+        on_grid
+            .upload_grid_triangles(&g.device, &g.queue, bytemuck::cast_slice(&grid[..n]))
+            .unwrap();
+        mesh.upload(&g.device, &g.queue, &verts[..c.vertices], &idx)
+            .unwrap();
         // The same triangles at the same positions in the same order: the same depth, bit for
         // bit.
         let (a, b) = (mesh_depth(g, &mesh, &cam), mesh_depth(g, &on_grid, &cam));
@@ -1711,4 +1719,72 @@ fn pass_times_come_from_gpu_timestamps_when_the_device_has_them() {
         }
         assert_eq!(frame, reference, "profiling must not change the frame");
     }
+}
+
+/// A mesh whose vertices or indices exceed the device's `max_buffer_size` is a typed error
+/// (wgpu's default handler would panic on the buffer), the last mesh stays drawn, and a buffer
+/// grown to the next power of two is capped at the limit. A second device with a 65,532-byte
+/// limit (not a power of two) stands in for a small GPU.
+#[test]
+fn mesh_uploads_past_the_buffer_limit_are_errors_and_growth_stops_at_the_limit() {
+    let Some(g) = gpu() else { return };
+    let instance =
+        wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+    let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
+        &instance, None,
+    ))
+    .unwrap();
+    const LIMIT: u64 = 65_532;
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        required_limits: wgpu::Limits {
+            max_buffer_size: LIMIT,
+            ..adapter.limits()
+        },
+        ..Default::default()
+    }))
+    .unwrap();
+    let small = Gpu {
+        device,
+        queue,
+        info: g.info.clone(),
+    };
+    let (d, q) = (&small.device, &small.queue);
+    let cam = Camera::new(Vec3::new(-10.0, 0.0, 0.0), Vec3::ZERO, 60.0, 64, 64).unwrap();
+    let tri = [[0.0f32, -5.0, -5.0], [0.0, 5.0, -5.0], [0.0, 0.0, 5.0]];
+    let mut mesh = MeshPass::new(d);
+    mesh.upload(d, q, &tri, &[0, 1, 2]).unwrap();
+    let first = mesh_depth(&small, &mesh, &cam);
+    // Reversed-Z: the cleared depth is 0, a drawn pixel's is positive.
+    let covered = first.iter().filter(|&&x| x > 0.0).count();
+    assert!(covered > 100, "the triangle covers {covered} pixels");
+    let unsupported = |r: Result<(), relief_wgpu::Error>, what: &str| match r {
+        Err(relief_wgpu::Error::Unsupported(m)) => assert!(m.contains(what), "{m}"),
+        other => panic!("expected an error about {what}, got {other:?}"),
+    };
+    // 6,000 vertices: 72,000 bytes.
+    let many: Vec<[f32; 3]> = tri.iter().copied().cycle().take(6000).collect();
+    unsupported(mesh.upload(d, q, &many, &[0, 1, 2]), "vertices");
+    // 17,001 indices: 68,004 bytes.
+    let long: Vec<u32> = [0, 1, 2].into_iter().cycle().take(17_001).collect();
+    unsupported(mesh.upload(d, q, &tri, &long), "indices");
+    unsupported(mesh.upload_grid_triangles(d, q, &long), "indices");
+    // An 80 x 80 grid: 76,800 bytes of vertices.
+    let s = vec![0.0f32; 80 * 80];
+    let hf = Heightfield::new(&s, 80, 80).unwrap();
+    unsupported(mesh.upload_grid_vertices(d, q, &hf), "grid vertices");
+    let same = |mesh: &MeshPass| {
+        let now = mesh_depth(&small, mesh, &cam);
+        now.iter()
+            .zip(&first)
+            .all(|(a, b)| a.to_bits() == b.to_bits())
+    };
+    assert!(same(&mesh), "a refused upload changed the mesh drawn");
+    // 5,000 vertices, 60,000 bytes: the next power of two (65,536) is over the limit, so the
+    // buffer is capped at 65,532 (without the cap wgpu would refuse the buffer).
+    let fits: Vec<[f32; 3]> = tri.iter().copied().cycle().take(5000).collect();
+    mesh.upload(d, q, &fits, &[0, 1, 2]).unwrap();
+    assert!(same(&mesh), "the capped buffer draws another picture");
+    // And an empty upload draws nothing.
+    mesh.upload(d, q, &[], &[]).unwrap();
+    assert!(mesh_depth(&small, &mesh, &cam).iter().all(|&x| x == 0.0));
 }

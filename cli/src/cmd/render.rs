@@ -87,6 +87,11 @@ pub struct RenderArgs {
     /// Screen-space error in pixels for `--method mesh`.
     #[arg(long, value_name = "PX", default_value_t = 1.0)]
     pixel_error: f32,
+    /// Testing aid for `--method mesh`: draw every frame as an indexed list (counted, with the
+    /// frame's own vertices), the path of a grid whose vertices do not fit one buffer of the
+    /// device, even where they fit. The picture is the same.
+    #[arg(long, hide = true)]
+    mesh_list: bool,
     /// Frames to render; pass times are the median over them (the first frame's setup passes
     /// are reported separately).
     #[arg(long, value_name = "N", default_value_t = 1)]
@@ -189,7 +194,7 @@ fn render_gpu(
         let t0 = Instant::now();
         let mut errors = vec![0u16; relief_core::refine::hierarchy_len(hw, hh)];
         let hier = preprocess_compact(hf, &mut errors)?;
-        let setup = vec![("preprocess".to_string(), t0.elapsed().as_secs_f64() * 1e3)];
+        let mut setup = vec![("preprocess".to_string(), t0.elapsed().as_secs_f64() * 1e3)];
         let view = View::new(camera, a.pixel_error)?;
         let rf = Refiner::new(&hier, hf, Criterion::View(view))?;
         let mut scratch = vec![0u64; scratch_len(hw, hh)];
@@ -200,17 +205,54 @@ fn render_gpu(
         let style = MeshStyle::Terrain {
             lighting: effects.contains(&Effect::Lighting),
         };
+        // Every sample a vertex, uploaded once; each frame then writes only its triangles as
+        // grid indices (`Refiner::grid_triangles`: one traversal, nothing renumbered, no
+        // vertices). A grid whose vertices do not fit one buffer of the device takes the
+        // indexed list instead (counted, then the frame's own vertices).
+        let t0 = Instant::now();
+        let on_grid = !a.mesh_list
+            && match mesh.upload_grid_vertices(&gpu.device, &gpu.queue, hf) {
+                Ok(()) => true,
+                Err(relief_wgpu::Error::Unsupported(_)) => false,
+                Err(e) => return Err(e.into()),
+            };
+        if on_grid {
+            setup.push((
+                "grid_vertices".to_string(),
+                t0.elapsed().as_secs_f64() * 1e3,
+            ));
+        }
+        // Grows to the largest frame (a retry when a frame outgrows it), reused across frames.
+        let mut grid: Vec<[u32; 3]> = Vec::new();
         let mut frames = Vec::new();
         for _ in 0..a.repeat {
             let t = Instant::now();
-            let c = rf.count(&mut scratch)?;
-            let mut verts = vec![[0.0f32; 3]; c.vertices];
-            let mut tris = vec![[0u32; 3]; c.triangles];
-            rf.triangles(&mut scratch, &mut verts, &mut tris)?;
+            // The indexed list's vertices and indices, or `None` for grid indices in `grid[..n]`.
+            let (list, n) = if on_grid {
+                let n = match rf.grid_triangles(&mut grid) {
+                    Err(relief_core::Error::BufferTooSmall { needed, .. }) => {
+                        grid.resize(needed, [0; 3]);
+                        rf.grid_triangles(&mut grid)?
+                    }
+                    r => r?,
+                };
+                (None, n)
+            } else {
+                let c = rf.count(&mut scratch)?;
+                let mut verts = vec![[0.0f32; 3]; c.vertices];
+                let mut tris = vec![[0u32; 3]; c.triangles];
+                rf.triangles(&mut scratch, &mut verts, &mut tris)?;
+                (Some((verts, tris.as_flattened().to_vec())), 0)
+            };
             let refine_ms = t.elapsed().as_secs_f64() * 1e3;
             let t = Instant::now();
-            let idx: Vec<u32> = tris.into_iter().flatten().collect();
-            mesh.upload(&gpu.device, &gpu.queue, &verts, &idx);
+            match &list {
+                Some((v, i)) => mesh.upload(&gpu.device, &gpu.queue, v, i)?,
+                None => {
+                    let i = grid.get(..n).unwrap_or(&[]).as_flattened();
+                    mesh.upload_grid_triangles(&gpu.device, &gpu.queue, i)?
+                }
+            }
             let mut enc = gpu.device.create_command_encoder(&Default::default());
             mesh.encode(
                 &gpu.queue,
