@@ -490,3 +490,39 @@ fn cpu_backend_renders_deformations_water_and_detail_like_the_gpu() {
         gpu_png.len()
     );
 }
+
+/// Images past what the adapter holds in one texture side (`--method mesh`, depth output) or in
+/// one storage buffer binding (the ray casters' per-pixel outputs, 16 bytes a pixel for the
+/// normals) end in one line with exit code 2, not in wgpu's validation panic. On an adapter
+/// large enough (not lavapipe, whose limits are a 16384 texture side and a 128 MiB binding)
+/// they may render instead; a run without any adapter is a one-line error too.
+#[test]
+fn images_too_large_for_the_adapter_are_one_line_errors_not_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let dem = bundled();
+    let png = dir.path().join("big.png").display().to_string();
+    let cases: [(&str, &[&str]); 4] = [
+        ("20000x64", &["--method", "mesh"]),
+        ("20000x64", &["--effects", "depth"]),
+        ("8192x8192", &["--method", "cascades"]),
+        ("8192x8192", &["--method", "maxmip"]),
+    ];
+    for (size, extra) in cases {
+        let mut args = vec!["render", "--dem", &dem, "--dx", "160", "--dy", "160"];
+        args.extend_from_slice(&["--z-scale", "0.1", "--out", &png, "--size", size]);
+        args.extend_from_slice(&["--eye", "82000,-20000,9000", "--target", "82000,60000,0"]);
+        args.extend_from_slice(extra);
+        let out = relief_env(&args, &[]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        eprintln!("{size} {extra:?}: {:?} {err:?}", out.status.code());
+        if !out.status.success() {
+            assert_one_line_error(&out, "");
+            assert!(
+                err.contains("no GPU adapter")
+                    || err.contains("this device allows")
+                    || err.contains("max_texture_dimension_2d"),
+                "{err}"
+            );
+        }
+    }
+}

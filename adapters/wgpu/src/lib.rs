@@ -80,6 +80,16 @@ pub enum Error {
     Core(relief_core::Error),
     /// A size or option does not fit the device or the pass: what and why.
     Unsupported(&'static str),
+    /// A storage buffer larger than the device allows in one buffer or one binding
+    /// (`max_buffer_size`, `max_storage_buffer_binding_size`): a smaller image or terrain fits.
+    TooLarge {
+        /// The buffer (its label).
+        what: &'static str,
+        /// Bytes it needs.
+        bytes: u64,
+        /// Bytes the device allows.
+        limit: u64,
+    },
 }
 
 impl core::fmt::Display for Error {
@@ -90,6 +100,10 @@ impl core::fmt::Display for Error {
             Error::Readback(m) => write!(f, "GPU readback failed: {m}"),
             Error::Core(e) => write!(f, "{e}"),
             Error::Unsupported(m) => write!(f, "unsupported: {m}"),
+            Error::TooLarge { what, bytes, limit } => write!(
+                f,
+                "{what}: {bytes} bytes, more than this device allows in one buffer ({limit}): use a smaller image or terrain"
+            ),
         }
     }
 }

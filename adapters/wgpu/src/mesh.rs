@@ -94,8 +94,27 @@ pub struct DepthTarget {
 }
 
 impl DepthTarget {
-    /// A `width x height` target (both textures copyable to buffers).
-    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> DepthTarget {
+    /// A `width x height` target (both textures copyable to buffers). [`Error::Unsupported`]
+    /// for a zero size or a side past the device's `max_texture_dimension_2d` (8192 on many
+    /// GPUs; wgpu's default handler would panic on the texture).
+    ///
+    /// ```no_run
+    /// let gpu = relief_wgpu::headless()?;
+    /// let target = relief_wgpu::DepthTarget::new(&gpu.device, 640, 360)?;
+    /// assert_eq!((target.width, target.height), (640, 360));
+    /// assert!(relief_wgpu::DepthTarget::new(&gpu.device, 1 << 20, 1).is_err());
+    /// # Ok::<(), relief_wgpu::Error>(())
+    /// ```
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<DepthTarget, Error> {
+        let max = device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 {
+            return Err(Error::Unsupported("a depth target of zero pixels"));
+        }
+        if width > max || height > max {
+            return Err(Error::Unsupported(
+                "image side larger than the device's max_texture_dimension_2d",
+            ));
+        }
         let tex = |label, format, usage| {
             device.create_texture(&wgpu::TextureDescriptor {
                 label: Some(label),
@@ -113,12 +132,12 @@ impl DepthTarget {
             })
         };
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC;
-        DepthTarget {
+        Ok(DepthTarget {
             width,
             height,
             color: tex("relief colour target", COLOR_FORMAT, usage),
             depth: tex("relief depth target", DEPTH_FORMAT, usage),
-        }
+        })
     }
 
     fn read_texture(
@@ -130,6 +149,11 @@ impl DepthTarget {
     ) -> Result<Vec<[u8; 4]>, Error> {
         let row = (self.width * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
         let size = row as u64 * self.height as u64;
+        if size > device.limits().max_buffer_size {
+            return Err(Error::Unsupported(
+                "image larger than the device's max_buffer_size for its readback",
+            ));
+        }
         let staging = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("relief texture readback"),
             size,
@@ -230,7 +254,7 @@ pub enum MeshStyle {
 /// use relief_wgpu::{mesh::MeshStyle, DepthTarget, MeshPass};
 /// use glam::Vec3;
 /// let gpu = relief_wgpu::headless()?;
-/// let target = DepthTarget::new(&gpu.device, 64, 64);
+/// let target = DepthTarget::new(&gpu.device, 64, 64)?;
 /// let mut mesh = MeshPass::new(&gpu.device);
 /// mesh.upload(&gpu.device, &gpu.queue, &[[0.0, -5.0, -5.0], [0.0, 5.0, -5.0], [0.0, 0.0, 5.0]], &[0, 1, 2])?;
 /// let cam = Camera::new(Vec3::new(-10.0, 0.0, 0.0), Vec3::ZERO, 60.0, 64, 64)?;
@@ -691,7 +715,7 @@ impl MeshPass {
 /// let hf = Heightfield::new(&[0.0f32; 16], 4, 4)?;
 /// let t = GpuTerrain::new(&gpu.device, &gpu.queue, &hf, false)?;
 /// let rays = RayCastPass::new(&gpu.device, &t, None, None, Method::MaxMip, RayEffects::default(), 8, 8)?;
-/// let target = DepthTarget::new(&gpu.device, 8, 8);
+/// let target = DepthTarget::new(&gpu.device, 8, 8)?;
 /// let resolve = ResolvePass::new(&gpu.device, rays.outputs(), 1.0);
 /// let cam = Camera::new(Vec3::new(-1.0, -1.0, 3.0), Vec3::new(2.0, 2.0, 0.0), 60.0, 8, 8)?;
 /// let mut enc = gpu.device.create_command_encoder(&Default::default());

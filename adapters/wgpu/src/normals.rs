@@ -129,10 +129,12 @@ impl NormalPass {
             None => (1, 1),
         };
         let detail_buf = match detail {
-            Some((d, _, _)) => util::storage_init(device, "relief detail", bytemuck::cast_slice(d)),
-            None => util::storage(device, "relief detail (unused)", 4),
+            Some((d, _, _)) => {
+                util::storage_init(device, "relief detail", bytemuck::cast_slice(d))?
+            }
+            None => util::storage(device, "relief detail (unused)", 4)?,
         };
-        let normals = util::storage(device, "relief normal map", w as u64 * h as u64 * 16);
+        let normals = util::storage(device, "relief normal map", w as u64 * h as u64 * 16)?;
         let params = util::uniform(device, "relief normal params", 32);
         let p: [u32; 8] = [w, h, dw, dh, dx.to_bits(), dy.to_bits(), shift, 0];
         queue.write_buffer(&params, 0, bytemuck::cast_slice(&p));

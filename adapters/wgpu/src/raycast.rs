@@ -237,16 +237,18 @@ pub struct RayOutputs {
 }
 
 impl RayOutputs {
-    /// Output buffers for a `width x height` image.
-    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> RayOutputs {
+    /// Output buffers for a `width x height` image. [`Error::TooLarge`] when the normals (16
+    /// bytes a pixel) do not fit one storage buffer binding of the device (128 MiB on many
+    /// adapters, lavapipe included: about 8.4 M pixels).
+    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<RayOutputs, Error> {
         let n = width as u64 * height as u64;
-        RayOutputs {
+        Ok(RayOutputs {
             width,
             height,
-            depth: util::storage(device, "relief depth", n * 4),
-            normal: util::storage(device, "relief normals out", n * 16),
-            color: util::storage(device, "relief colour", n * 4),
-        }
+            depth: util::storage(device, "relief depth", n * 4)?,
+            normal: util::storage(device, "relief normals out", n * 16)?,
+            color: util::storage(device, "relief colour", n * 4)?,
+        })
     }
 
     /// Reads the depth image back (waits for the GPU).
@@ -389,8 +391,8 @@ impl RayCastPass {
         if terrain.mip_offsets().len() > 36 {
             return Err(Error::Unsupported("too many max-mip levels"));
         }
-        let dummy = util::storage(device, "relief unused", 16);
-        let out = RayOutputs::new(device, width, height);
+        let dummy = util::storage(device, "relief unused", 16)?;
+        let out = RayOutputs::new(device, width, height)?;
         let params = util::uniform(device, "relief ray params", PARAM_WORDS as u64 * 4);
         let module =
             device.create_shader_module(wgpu::include_wgsl!("../../../shaders/raycast.wgsl"));

@@ -115,18 +115,22 @@ impl RbfPass {
             width: w,
             height: h,
             sigma: rbf.sigma(),
-            cells: util::storage_init(device, "relief rbf cells", bytemuck::cast_slice(&cell_data)),
-            index: util::storage_init(device, "relief rbf index", bytemuck::cast_slice(&index)),
+            cells: util::storage_init(
+                device,
+                "relief rbf cells",
+                bytemuck::cast_slice(&cell_data),
+            )?,
+            index: util::storage_init(device, "relief rbf index", bytemuck::cast_slice(&index))?,
             offsets: util::storage_init(
                 device,
                 "relief rbf offsets",
                 bytemuck::cast_slice(&offsets),
-            ),
+            )?,
             entries: util::storage_init(
                 device,
                 "relief rbf entries",
                 bytemuck::cast_slice(&entries),
-            ),
+            )?,
             layout,
             pipeline,
             visible,
@@ -151,10 +155,10 @@ impl RbfPass {
                 "cascade resolution is 0 or beyond the device's storage buffer binding size",
             ));
         }
-        let mask = util::storage(device, "relief rbf mask", n * 4);
-        let values = util::storage(device, "relief rbf values", n * 4);
+        let mask = util::storage(device, "relief rbf mask", n * 4)?;
+        let values = util::storage(device, "relief rbf values", n * 4)?;
         let params = util::uniform(device, "relief rbf params", PARAM_BYTES);
-        let edges = util::storage(device, "relief rbf edges", MAX_POLYGON as u64 * 32);
+        let edges = util::storage(device, "relief rbf edges", MAX_POLYGON as u64 * 32)?;
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("relief rbf"),
             layout: &self.layout,

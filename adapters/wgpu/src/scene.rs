@@ -652,17 +652,16 @@ impl Renderer {
                     device,
                     "relief water surface",
                     bytemuck::cast_slice(&local),
-                ))
+                )?)
             }
             _ => None,
         };
-        let detail = detail_map.map(|(s, w, h)| {
-            (
-                util::storage_init(device, "relief detail", bytemuck::cast_slice(&s)),
-                w,
-                h,
-            )
-        });
+        let detail = detail_map
+            .map(|(s, w, h)| {
+                util::storage_init(device, "relief detail", bytemuck::cast_slice(&s))
+                    .map(|b| (b, w, h))
+            })
+            .transpose()?;
         let cascades = match scene.method {
             Method::Cascades { resolution } => Some(Self::approximate(
                 device,
@@ -872,8 +871,9 @@ impl Renderer {
                 )?),
             };
             if self.scene.has(Effect::DepthOutput) {
+                let target = DepthTarget::new(device, size.0, size.1)?;
                 self.resolve = Some(ResolvePass::new(device, caster.outputs(), NEAR));
-                self.target = Some(DepthTarget::new(device, size.0, size.1));
+                self.target = Some(target);
             }
             self.caster = Some(caster);
         }

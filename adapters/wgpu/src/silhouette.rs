@@ -156,9 +156,9 @@ impl SilhouettePass {
                 "silhouette tree larger than the device's storage buffer binding size",
             ));
         }
-        let sil = util::storage(device, "relief silhouette map", sil_bytes);
-        let tree = util::storage(device, "relief silhouette tree", total * 16);
-        let out = RayOutputs::new(device, width, height);
+        let sil = util::storage(device, "relief silhouette map", sil_bytes)?;
+        let tree = util::storage(device, "relief silhouette tree", total * 16)?;
+        let out = RayOutputs::new(device, width, height)?;
         let module =
             device.create_shader_module(wgpu::include_wgsl!("../../../shaders/silhouette.wgsl"));
         let cs = wgpu::ShaderStages::COMPUTE;

@@ -135,14 +135,16 @@ impl GpuTerrain {
                 local.push(z);
             }
         }
-        let base = util::storage_init(device, "relief heights", bytemuck::cast_slice(&local));
-        let current = dynamic.then(|| {
-            util::storage_init(
-                device,
-                "relief deformed heights",
-                bytemuck::cast_slice(&local),
-            )
-        });
+        let base = util::storage_init(device, "relief heights", bytemuck::cast_slice(&local))?;
+        let current = dynamic
+            .then(|| {
+                util::storage_init(
+                    device,
+                    "relief deformed heights",
+                    bytemuck::cast_slice(&local),
+                )
+            })
+            .transpose()?;
         let t = Self::build(device, base, current, w, h, terrain.scale(), lo, hi)?;
         if let Some(d) = &t.deform {
             _queue.write_buffer(&d.params, 0, bytemuck::cast_slice(&[w, h, 0u32, 0u32]));
@@ -205,7 +207,7 @@ impl GpuTerrain {
             }
         }
         let mip_len = total as usize;
-        let mip = util::storage(device, "relief maxmip", mip_len as u64 * 4);
+        let mip = util::storage(device, "relief maxmip", mip_len as u64 * 4)?;
         let module =
             device.create_shader_module(wgpu::include_wgsl!("../../../shaders/maxmip.wgsl"));
         let cs = wgpu::ShaderStages::COMPUTE;
@@ -248,7 +250,7 @@ impl GpuTerrain {
                 entries: &bind_buffers(&[src, &mip, &ub]),
             }));
         }
-        let deform = current.as_ref().map(|cur| {
+        let deform = current.as_ref().map(|cur| -> Result<Deform, Error> {
             let module =
                 device.create_shader_module(wgpu::include_wgsl!("../../../shaders/deform.wgsl"));
             let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -263,19 +265,20 @@ impl GpuTerrain {
             let pipeline =
                 compute_pipeline(device, "relief deform", &layout, &module, "deform", &[]);
             let params = util::uniform(device, "relief deform params", 16);
-            let craters = util::storage(device, "relief craters", MAX_CRATERS as u64 * 16);
+            let craters = util::storage(device, "relief craters", MAX_CRATERS as u64 * 16)?;
             let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("relief deform"),
                 layout: &layout,
                 entries: &bind_buffers(&[&base, cur, &params, &craters]),
             });
-            Deform {
+            Ok(Deform {
                 pipeline,
                 group,
                 params,
                 craters,
-            }
+            })
         });
+        let deform = deform.transpose()?;
         Ok(GpuTerrain {
             width: w,
             height: h,

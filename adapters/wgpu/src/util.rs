@@ -3,27 +3,56 @@
 use crate::Error;
 use wgpu::util::DeviceExt;
 
-/// A storage buffer initialised with `contents`, usable as a copy source and destination.
-pub(crate) fn storage_init(device: &wgpu::Device, label: &str, contents: &[u8]) -> wgpu::Buffer {
-    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label: Some(label),
-        contents,
-        usage: wgpu::BufferUsages::STORAGE
-            | wgpu::BufferUsages::COPY_SRC
-            | wgpu::BufferUsages::COPY_DST,
-    })
+/// [`Error::TooLarge`] when a storage buffer of `bytes` is more than the device allows in one
+/// buffer or one binding (wgpu's default handler would panic on the buffer or its bind group).
+pub(crate) fn check_storage(
+    device: &wgpu::Device,
+    what: &'static str,
+    bytes: u64,
+) -> Result<(), Error> {
+    let l = device.limits();
+    let limit = l.max_buffer_size.min(l.max_storage_buffer_binding_size);
+    if bytes > limit {
+        return Err(Error::TooLarge { what, bytes, limit });
+    }
+    Ok(())
 }
 
-/// An uninitialised storage buffer of `size` bytes (at least 4).
-pub(crate) fn storage(device: &wgpu::Device, label: &str, size: u64) -> wgpu::Buffer {
-    device.create_buffer(&wgpu::BufferDescriptor {
+/// A storage buffer initialised with `contents`, usable as a copy source and destination
+/// ([`check_storage`] first).
+pub(crate) fn storage_init(
+    device: &wgpu::Device,
+    label: &'static str,
+    contents: &[u8],
+) -> Result<wgpu::Buffer, Error> {
+    check_storage(device, label, contents.len() as u64)?;
+    Ok(
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+        }),
+    )
+}
+
+/// An uninitialised storage buffer of `size` bytes (at least 4; [`check_storage`] first).
+pub(crate) fn storage(
+    device: &wgpu::Device,
+    label: &'static str,
+    size: u64,
+) -> Result<wgpu::Buffer, Error> {
+    let size = size.max(4).next_multiple_of(4);
+    check_storage(device, label, size)?;
+    Ok(device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
-        size: size.max(4).next_multiple_of(4),
+        size,
         usage: wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_SRC
             | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
-    })
+    }))
 }
 
 /// A uniform buffer of `size` bytes, written with `Queue::write_buffer`.

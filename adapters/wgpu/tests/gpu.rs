@@ -441,7 +441,7 @@ fn mesh_pass_with_reversed_z_matches_cpu_ray_mesh_intersection() {
         assert!(idx.len() / 3 > 200, "{} triangles", idx.len() / 3);
         for c in cameras(&hf) {
             let cam = Camera::new(c.eye, c.target, c.fov_deg, 128, 96).unwrap();
-            let target = DepthTarget::new(&g.device, cam.width, cam.height);
+            let target = DepthTarget::new(&g.device, cam.width, cam.height).unwrap();
             mesh.upload(&g.device, &g.queue, &verts, &idx).unwrap();
             submit(g, |e| {
                 mesh.encode(
@@ -531,7 +531,7 @@ fn depth_output_lets_terrain_and_meshes_occlude_each_other() {
         cam.height,
     )
     .unwrap();
-    let target = DepthTarget::new(&g.device, cam.width, cam.height);
+    let target = DepthTarget::new(&g.device, cam.width, cam.height).unwrap();
     let resolve = ResolvePass::new(&g.device, rays.outputs(), 1.0);
     // A vertical red wall across the view, x = 200, part in front of and part behind hills.
     let quad = [
@@ -798,7 +798,7 @@ fn effects_change_the_colour_not_the_depth_and_craters_match_the_cpu() {
 
 /// The depth buffer of `mesh` (already uploaded) drawn from `cam`.
 fn mesh_depth(g: &Gpu, mesh: &MeshPass, cam: &Camera) -> Vec<f32> {
-    let target = DepthTarget::new(&g.device, cam.width, cam.height);
+    let target = DepthTarget::new(&g.device, cam.width, cam.height).unwrap();
     submit(g, |e| {
         mesh.encode(
             &g.queue,
@@ -1721,33 +1721,37 @@ fn pass_times_come_from_gpu_timestamps_when_the_device_has_them() {
     }
 }
 
-/// A mesh whose vertices or indices exceed the device's `max_buffer_size` is a typed error
-/// (wgpu's default handler would panic on the buffer), the last mesh stays drawn, and a buffer
-/// grown to the next power of two is capped at the limit. A second device with a 65,532-byte
-/// limit (not a power of two) stands in for a small GPU.
-#[test]
-fn mesh_uploads_past_the_buffer_limit_are_errors_and_growth_stops_at_the_limit() {
-    let Some(g) = gpu() else { return };
+/// A second device on the test adapter with `limits` applied to the adapter's own: it stands
+/// in for a smaller GPU.
+fn small_gpu(g: &Gpu, limits: impl FnOnce(&mut wgpu::Limits)) -> Gpu {
     let instance =
         wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
     let adapter = pollster::block_on(wgpu::util::initialize_adapter_from_env_or_default(
         &instance, None,
     ))
     .unwrap();
-    const LIMIT: u64 = 65_532;
+    let mut required = adapter.limits();
+    limits(&mut required);
     let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-        required_limits: wgpu::Limits {
-            max_buffer_size: LIMIT,
-            ..adapter.limits()
-        },
+        required_limits: required,
         ..Default::default()
     }))
     .unwrap();
-    let small = Gpu {
+    Gpu {
         device,
         queue,
         info: g.info.clone(),
-    };
+    }
+}
+
+/// A mesh whose vertices or indices exceed the device's `max_buffer_size` is a typed error
+/// (wgpu's default handler would panic on the buffer), the last mesh stays drawn, and a buffer
+/// grown to the next power of two is capped at the limit (65,532 bytes here, not a power of
+/// two).
+#[test]
+fn mesh_uploads_past_the_buffer_limit_are_errors_and_growth_stops_at_the_limit() {
+    let Some(g) = gpu() else { return };
+    let small = small_gpu(g, |l| l.max_buffer_size = 65_532);
     let (d, q) = (&small.device, &small.queue);
     let cam = Camera::new(Vec3::new(-10.0, 0.0, 0.0), Vec3::ZERO, 60.0, 64, 64).unwrap();
     let tri = [[0.0f32, -5.0, -5.0], [0.0, 5.0, -5.0], [0.0, 0.0, 5.0]];
@@ -1787,4 +1791,51 @@ fn mesh_uploads_past_the_buffer_limit_are_errors_and_growth_stops_at_the_limit()
     // And an empty upload draws nothing.
     mesh.upload(d, q, &[], &[]).unwrap();
     assert!(mesh_depth(&small, &mesh, &cam).iter().all(|&x| x == 0.0));
+}
+
+/// Render targets and ray outputs past the device's limits are typed errors, not wgpu's
+/// validation panic: a depth target wider than `max_texture_dimension_2d`, ray outputs whose
+/// normals (16 bytes a pixel) exceed one storage binding, and a scene with depth output whose
+/// image is too wide. The same sizes one step smaller work.
+#[test]
+fn render_targets_and_ray_outputs_past_the_device_limits_are_errors() {
+    let Some(g) = gpu() else { return };
+    let small = small_gpu(g, |l| {
+        l.max_texture_dimension_2d = 256;
+        l.max_storage_buffer_binding_size = 1 << 16;
+    });
+    let d = &small.device;
+    assert!(DepthTarget::new(d, 256, 16).is_ok());
+    for (w, h) in [(257, 16), (16, 257), (0, 16)] {
+        let r = DepthTarget::new(d, w, h);
+        assert!(
+            matches!(r, Err(relief_wgpu::Error::Unsupported(_))),
+            "{w}x{h}"
+        );
+    }
+    // 64 x 64 pixels: normals 65,536 bytes, the limit; one more row is over.
+    assert!(relief_wgpu::raycast::RayOutputs::new(d, 64, 64).is_ok());
+    match relief_wgpu::raycast::RayOutputs::new(d, 64, 65) {
+        Err(relief_wgpu::Error::TooLarge { what, bytes, limit }) => {
+            assert_eq!((what, bytes, limit), ("relief normals out", 66_560, 65_536));
+        }
+        other => panic!("expected TooLarge, got {other:?}"),
+    }
+    let s = synthetic(33, 33);
+    let hf = Heightfield::new(&s, 33, 33).unwrap();
+    let scene = Scene::new().with_effect(Effect::DepthOutput);
+    let mut r = Renderer::new(d, &small.queue, &hf, scene).unwrap();
+    let (eye, at) = (Vec3::new(-20.0, -20.0, 60.0), Vec3::new(16.0, 16.0, 0.0));
+    let fits = Camera::new(eye, at, 60.0, 64, 16).unwrap();
+    // Outputs that fit a binding, a depth target wider than a texture may be.
+    let wide = Camera::new(eye, at, 60.0, 300, 4).unwrap();
+    // A depth target that fits, outputs that do not.
+    let tall = Camera::new(eye, at, 60.0, 64, 80).unwrap();
+    assert!(r.render(d, &small.queue, &fits).is_ok());
+    let e = r.render(d, &small.queue, &wide).unwrap_err();
+    assert!(matches!(e, relief_wgpu::Error::Unsupported(_)), "{e}");
+    let e = r.render(d, &small.queue, &tall).unwrap_err();
+    assert!(matches!(e, relief_wgpu::Error::TooLarge { .. }), "{e}");
+    // And the renderer still draws a frame that fits.
+    assert!(r.render(d, &small.queue, &fits).is_ok());
 }

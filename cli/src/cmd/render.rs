@@ -199,7 +199,7 @@ fn render_gpu(
         let rf = Refiner::new(&hier, hf, Criterion::View(view))?;
         let mut scratch = vec![0u64; scratch_len(hw, hh)];
         let mut mesh = MeshPass::new(&gpu.device);
-        let target = DepthTarget::new(&gpu.device, w, h);
+        let target = DepthTarget::new(&gpu.device, w, h)?;
         let lo = local_min(hf) + hf.scale().z_offset;
         let (zmin, zmax) = (lo, lo + z_span(hf));
         let style = MeshStyle::Terrain {
