@@ -491,9 +491,10 @@ fn cpu_backend_renders_deformations_water_and_detail_like_the_gpu() {
     );
 }
 
-/// Images past what the adapter holds in one texture side (`--method mesh`, depth output) or in
+/// Images past what the adapter holds in one texture side (`--method mesh`, depth output), in
 /// one storage buffer binding (the ray casters' per-pixel outputs, 16 bytes a pixel for the
-/// normals) end in one line with exit code 2, not in wgpu's validation panic. On an adapter
+/// normals) or in one dispatch end in one line with exit code 2, not in wgpu's validation
+/// panic. On an adapter
 /// large enough (not lavapipe, whose limits are a 16384 texture side and a 128 MiB binding)
 /// they may render instead; a run without any adapter is a one-line error too.
 #[test]
@@ -501,11 +502,13 @@ fn images_too_large_for_the_adapter_are_one_line_errors_not_panics() {
     let dir = tempfile::tempdir().unwrap();
     let dem = bundled();
     let png = dir.path().join("big.png").display().to_string();
-    let cases: [(&str, &[&str]); 4] = [
+    let cases: [(&str, &[&str]); 5] = [
         ("20000x64", &["--method", "mesh"]),
         ("20000x64", &["--effects", "depth"]),
         ("8192x8192", &["--method", "cascades"]),
         ("8192x8192", &["--method", "maxmip"]),
+        // 125,000 workgroups of 8 x 8 along x: past every adapter's 65,535.
+        ("1000000x2", &["--method", "march"]),
     ];
     for (size, extra) in cases {
         let mut args = vec!["render", "--dem", &dem, "--dx", "160", "--dy", "160"];
@@ -520,7 +523,8 @@ fn images_too_large_for_the_adapter_are_one_line_errors_not_panics() {
             assert!(
                 err.contains("no GPU adapter")
                     || err.contains("this device allows")
-                    || err.contains("max_texture_dimension_2d"),
+                    || err.contains("max_texture_dimension_2d")
+                    || err.contains("max_compute_workgroups_per_dimension"),
                 "{err}"
             );
         }

@@ -109,6 +109,7 @@ impl NormalPass {
         let (Some(w), Some(h)) = (refined(bw), refined(bh)) else {
             return Err(relief_core::Error::SizeOverflow.into());
         };
+        util::check_dispatch(device, w, h)?;
         if u64::from(w) * u64::from(h) * 16 > device.limits().max_storage_buffer_binding_size {
             return Err(Error::Unsupported(
                 "composed normal map beyond the device's storage buffer binding size",

@@ -239,8 +239,11 @@ pub struct RayOutputs {
 impl RayOutputs {
     /// Output buffers for a `width x height` image. [`Error::TooLarge`] when the normals (16
     /// bytes a pixel) do not fit one storage buffer binding of the device (128 MiB on many
-    /// adapters, lavapipe included: about 8.4 M pixels).
+    /// adapters, lavapipe included: about 8.4 M pixels); [`Error::Unsupported`] for a side
+    /// past `8 x max_compute_workgroups_per_dimension` pixels.
     pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<RayOutputs, Error> {
+        // Every pass that writes these dispatches one thread a pixel in 8 x 8 workgroups.
+        util::check_dispatch(device, width, height)?;
         let n = width as u64 * height as u64;
         Ok(RayOutputs {
             width,

@@ -155,6 +155,7 @@ impl RbfPass {
                 "cascade resolution is 0 or beyond the device's storage buffer binding size",
             ));
         }
+        util::check_dispatch(device, resolution, resolution)?;
         let mask = util::storage(device, "relief rbf mask", n * 4)?;
         let values = util::storage(device, "relief rbf values", n * 4)?;
         let params = util::uniform(device, "relief rbf params", PARAM_BYTES);

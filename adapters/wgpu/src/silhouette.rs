@@ -156,6 +156,8 @@ impl SilhouettePass {
                 "silhouette tree larger than the device's storage buffer binding size",
             ));
         }
+        // Its passes dispatch over (width, v2) and (width, nodes of a level, at most v2 / 4).
+        util::check_dispatch(device, width, v2)?;
         let sil = util::storage(device, "relief silhouette map", sil_bytes)?;
         let tree = util::storage(device, "relief silhouette tree", total * 16)?;
         let out = RayOutputs::new(device, width, height)?;

@@ -188,6 +188,9 @@ impl GpuTerrain {
         lo: f32,
         hi: f32,
     ) -> Result<GpuTerrain, Error> {
+        // The max-mip build and deformations dispatch over the samples (the pyramid's levels
+        // are smaller).
+        util::check_dispatch(device, w, h)?;
         // Pyramid layout as MaxMip's.
         let (nx, ny) = (w - 1, h - 1);
         let mut offsets = Vec::new();

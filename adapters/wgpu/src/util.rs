@@ -144,6 +144,20 @@ pub(crate) fn groups(n: u32, size: u32) -> u32 {
     n.div_ceil(size)
 }
 
+/// [`Error::Unsupported`] unless a dispatch of 8 x 8 workgroups over `w x h` threads fits the
+/// device's `max_compute_workgroups_per_dimension` (65,535 on most: 524,280 threads a side;
+/// wgpu's default handler would panic on the dispatch).
+pub(crate) fn check_dispatch(device: &wgpu::Device, w: u32, h: u32) -> Result<(), Error> {
+    let max = device.limits().max_compute_workgroups_per_dimension;
+    if groups(w, 8) > max || groups(h, 8) > max {
+        return Err(Error::Unsupported(
+            "more compute workgroups along a side than the device's \
+             max_compute_workgroups_per_dimension",
+        ));
+    }
+    Ok(())
+}
+
 /// Copies the first `size` bytes of `buffer` (which needs `COPY_SRC`) to the CPU and waits for
 /// them: the one place where this crate blocks on the GPU, meant for the end of a frame (tests,
 /// the CLI, screenshots), never inside one.

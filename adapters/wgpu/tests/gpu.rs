@@ -1838,4 +1838,27 @@ fn render_targets_and_ray_outputs_past_the_device_limits_are_errors() {
     assert!(matches!(e, relief_wgpu::Error::TooLarge { .. }), "{e}");
     // And the renderer still draws a frame that fits.
     assert!(r.render(d, &small.queue, &fits).is_ok());
+
+    // Four 8 x 8 workgroups along a side: 32 threads. Wider images and terrains are refused
+    // before anything is dispatched.
+    let few = small_gpu(g, |l| l.max_compute_workgroups_per_dimension = 4);
+    let (d, q) = (&few.device, &few.queue);
+    assert!(relief_wgpu::raycast::RayOutputs::new(d, 32, 32).is_ok());
+    for (w, h) in [(33, 8), (8, 33)] {
+        let r = relief_wgpu::raycast::RayOutputs::new(d, w, h);
+        assert!(
+            matches!(r, Err(relief_wgpu::Error::Unsupported(_))),
+            "{w}x{h}"
+        );
+    }
+    let hf32 = Heightfield::new(&s[..32 * 32], 32, 32).unwrap();
+    assert!(GpuTerrain::new(d, q, &hf32, true).is_ok());
+    let r = GpuTerrain::new(d, q, &hf, false);
+    assert!(matches!(r, Err(relief_wgpu::Error::Unsupported(_))));
+    let t = GpuTerrain::new(d, q, &hf32, false).unwrap();
+    assert!(NormalPass::new(d, q, &t, NormalMethod::Sobel, None).is_ok());
+    // Refined twice: 63 x 63 samples, eight workgroups a side.
+    let detail = [0.0f32; 4];
+    let r = NormalPass::new_composed(d, q, &t, NormalMethod::Sobel, (&detail, 2, 2), 2);
+    assert!(matches!(r, Err(relief_wgpu::Error::Unsupported(_))));
 }
