@@ -48,6 +48,8 @@ override WATER: bool = false;
 // With WATER: the water surface is a heightfield (`water_surface`, e.g. the RBF approximation of
 // a flood simulation's water levels, seed 002) instead of the plane at `water.w`.
 override WATER_SURFACE: bool = false;
+// Each pixel's world normal to `out_normal` (a placeholder buffer without it).
+override NORMALS: bool = false;
 const WATER_STEPS: u32 = 128u;
 const WATER_REFINE: u32 = 8u;
 
@@ -549,6 +551,8 @@ fn raycast(@builtin(global_invocation_id) id: vec3<u32>) {
         color = mix(color, p.fog.xyz, 1.0 - exp(-p.fog.w * depth));
     }
     out_depth[i] = select(bitcast<u32>(depth), INF_BITS, depth >= BIG);
-    out_normal[i] = normal;
+    if NORMALS {
+        out_normal[i] = normal;
+    }
     out_color[i] = pack4x8unorm(vec4<f32>(clamp(color, vec3<f32>(0.0), vec3<f32>(1.0)), 1.0));
 }

@@ -530,3 +530,55 @@ fn images_too_large_for_the_adapter_are_one_line_errors_not_panics() {
         }
     }
 }
+
+/// `--effects normals --normals-out` writes three f32 a pixel: unit normals facing up where the
+/// depth image hits, zeros where it misses; the picture and depth are those of the scene
+/// without the effect. Without the effect the option is refused, and the CPU backend refuses
+/// the effect.
+#[test]
+fn normals_out_writes_the_hits_normals_only_when_the_effect_is_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let nf = dir.path().join("n.f32").display().to_string();
+    let Some((v, d)) = render(
+        dir.path(),
+        "normals",
+        &["--effects", "normals", "--normals-out", &nf],
+    ) else {
+        return;
+    };
+    assert_eq!(v["effects"], serde_json::json!(["normals"]));
+    let Some((_, bare)) = render(dir.path(), "bare", &[]) else {
+        return;
+    };
+    assert!(d.iter().zip(&bare).all(|(a, b)| a.to_bits() == b.to_bits()));
+    assert_eq!(
+        read_png(&dir.path().join("normals.png")),
+        read_png(&dir.path().join("bare.png"))
+    );
+    let n: Vec<f32> = std::fs::read(&nf)
+        .unwrap()
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    assert_eq!(n.len(), 3 * d.len());
+    let hits = d.iter().filter(|x| x.is_finite()).count();
+    assert!(hits > d.len() / 4, "{hits} hits");
+    for (p, t) in n.chunks_exact(3).zip(&d) {
+        let len = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        if t.is_finite() {
+            assert!((len - 1.0).abs() < 1e-4 && p[2] > 0.0, "{p:?}");
+        } else {
+            assert_eq!(p, [0.0; 3]);
+        }
+    }
+    let dem = bundled();
+    let png = dir.path().join("x.png").display().to_string();
+    let mut args = vec!["render", "--dem", &dem, "--out", &png];
+    args.extend_from_slice(&CAM);
+    let mut no_effect = args.clone();
+    no_effect.extend_from_slice(&["--normals-out", &nf]);
+    assert_one_line_error(&relief_env(&no_effect, &[]), "--effects normals");
+    let mut cpu = args.clone();
+    cpu.extend_from_slice(&["--backend", "cpu", "--effects", "normals"]);
+    assert_one_line_error(&relief_env(&cpu, &[]), "needs --backend gpu");
+}

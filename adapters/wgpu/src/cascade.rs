@@ -135,7 +135,7 @@ impl CascadeRayCast {
             "relief cascade blend params",
             PARAM_WORDS as u64 * 4,
         );
-        let out = RayOutputs::new(device, width, height)?;
+        let out = RayOutputs::new(device, width, height, false)?;
         let d = |k: usize| &layers[k].rays.outputs().depth;
         let m = |k: usize| layers[k].target.mask();
         let group = device.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -112,6 +112,9 @@ pub struct RayEffects {
     pub water: bool,
     /// The water is a heightfield (one height per sample) instead of a plane.
     pub water_surface: bool,
+    /// Each pixel's world normal written to [`RayOutputs::normal`] (read back with
+    /// [`RayOutputs::read_normals`]): 16 bytes a pixel, not written or allocated without it.
+    pub normals: bool,
 }
 
 impl RayEffects {
@@ -139,6 +142,7 @@ impl RayEffects {
             ("FOG", b(self.fog)),
             ("WATER", b(self.water)),
             ("WATER_SURFACE", b(self.water && self.water_surface)),
+            ("NORMALS", b(self.normals)),
         ]
     }
 }
@@ -230,18 +234,27 @@ pub struct RayOutputs {
     pub height: u32,
     /// Depth (`f32`).
     pub depth: wgpu::Buffer,
-    /// Normals (`vec4<f32>`).
+    /// Normals (`vec4<f32>`), when requested ([`RayOutputs::has_normals`]); otherwise a
+    /// 16-byte placeholder the passes do not write.
     pub normal: wgpu::Buffer,
     /// Colour (RGBA8 packed in a `u32`).
     pub color: wgpu::Buffer,
+    normals: bool,
 }
 
 impl RayOutputs {
-    /// Output buffers for a `width x height` image. [`Error::TooLarge`] when the normals (16
-    /// bytes a pixel) do not fit one storage buffer binding of the device (128 MiB on many
-    /// adapters, lavapipe included: about 8.4 M pixels); [`Error::Unsupported`] for a side
-    /// past `8 x max_compute_workgroups_per_dimension` pixels.
-    pub fn new(device: &wgpu::Device, width: u32, height: u32) -> Result<RayOutputs, Error> {
+    /// Output buffers for a `width x height` image, with per-pixel normals when `normals` (16
+    /// bytes a pixel: [`RayEffects::normals`]; depth and colour take 4 each).
+    /// [`Error::TooLarge`] when a buffer does not fit one storage buffer binding of the device
+    /// (128 MiB on many adapters, lavapipe included: about 8.4 M pixels with normals, 33.5 M
+    /// without); [`Error::Unsupported`] for a side past `8 x
+    /// max_compute_workgroups_per_dimension` pixels.
+    pub fn new(
+        device: &wgpu::Device,
+        width: u32,
+        height: u32,
+        normals: bool,
+    ) -> Result<RayOutputs, Error> {
         // Every pass that writes these dispatches one thread a pixel in 8 x 8 workgroups.
         util::check_dispatch(device, width, height)?;
         let n = width as u64 * height as u64;
@@ -249,9 +262,20 @@ impl RayOutputs {
             width,
             height,
             depth: util::storage(device, "relief depth", n * 4)?,
-            normal: util::storage(device, "relief normals out", n * 16)?,
+            normal: util::storage(
+                device,
+                "relief normals out",
+                if normals { n * 16 } else { 16 },
+            )?,
             color: util::storage(device, "relief colour", n * 4)?,
+            normals,
         })
+    }
+
+    /// Whether the normals are written ([`RayOutputs::new`]).
+    #[must_use]
+    pub fn has_normals(&self) -> bool {
+        self.normals
     }
 
     /// Reads the depth image back (waits for the GPU).
@@ -269,12 +293,18 @@ impl RayOutputs {
         )?))
     }
 
-    /// Reads the normals back (`w = 1` on a hit; waits for the GPU).
+    /// Reads the normals back (`w = 1` on a hit; waits for the GPU). [`Error::Unsupported`]
+    /// when they were not requested.
     pub fn read_normals(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
     ) -> Result<Vec<[f32; 4]>, Error> {
+        if !self.normals {
+            return Err(Error::Unsupported(
+                "normals were not requested (RayEffects::normals, Effect::NormalOutput)",
+            ));
+        }
         let n = self.width as u64 * self.height as u64 * 16;
         let v = util::f32s(&util::read_buffer(device, queue, &self.normal, n)?);
         Ok(v.chunks_exact(4)
@@ -395,7 +425,7 @@ impl RayCastPass {
             return Err(Error::Unsupported("too many max-mip levels"));
         }
         let dummy = util::storage(device, "relief unused", 16)?;
-        let out = RayOutputs::new(device, width, height)?;
+        let out = RayOutputs::new(device, width, height, effects.normals)?;
         let params = util::uniform(device, "relief ray params", PARAM_WORDS as u64 * 4);
         let module =
             device.create_shader_module(wgpu::include_wgsl!("../../../shaders/raycast.wgsl"));

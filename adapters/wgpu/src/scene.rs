@@ -17,6 +17,7 @@
 //! | [`Effect::Fog`] | none | `FOG` |
 //! | [`Effect::Water`] | none | `WATER` (plane), `WATER_SURFACE` (a heightfield, e.g. an RBF approximation) |
 //! | [`Effect::DepthOutput`] | `depth_resolve` per frame | none |
+//! | [`Effect::NormalOutput`] | none (the ray cast writes 16 bytes more a pixel) | `NORMALS` |
 //!
 //! The method picks the frame's core passes:
 //!
@@ -60,7 +61,7 @@ use std::time::Instant;
 /// use relief_wgpu::Effect;
 /// assert_eq!(Effect::parse("fog"), Some(Effect::Fog));
 /// assert_eq!(Effect::DepthOutput.name(), "depth");
-/// assert_eq!(Effect::ALL.len(), 7);
+/// assert_eq!(Effect::ALL.len(), 8);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Effect {
@@ -78,11 +79,15 @@ pub enum Effect {
     Water,
     /// A reversed-Z depth buffer (and colour target) for compositing with meshes.
     DepthOutput,
+    /// Each pixel's world normal in the ray caster's outputs ([`Renderer::outputs`],
+    /// [`RayOutputs::read_normals`]), e.g. for deferred shading: 16 bytes a pixel written per
+    /// frame, and allocated only with this effect.
+    NormalOutput,
 }
 
 impl Effect {
     /// Every effect, in order.
-    pub const ALL: [Effect; 7] = [
+    pub const ALL: [Effect; 8] = [
         Effect::Lighting,
         Effect::Shadows,
         Effect::Detail,
@@ -90,6 +95,7 @@ impl Effect {
         Effect::Fog,
         Effect::Water,
         Effect::DepthOutput,
+        Effect::NormalOutput,
     ];
 
     /// The effect's name on the command line.
@@ -107,6 +113,7 @@ impl Effect {
             Effect::Fog => "fog",
             Effect::Water => "water",
             Effect::DepthOutput => "depth",
+            Effect::NormalOutput => "normals",
         }
     }
 
@@ -368,6 +375,7 @@ impl Scene {
             fog: self.has(Effect::Fog),
             water: self.has(Effect::Water),
             water_surface: self.water_surface.is_some(),
+            normals: self.has(Effect::NormalOutput),
         }
     }
 

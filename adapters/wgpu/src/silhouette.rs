@@ -160,7 +160,7 @@ impl SilhouettePass {
         util::check_dispatch(device, width, v2)?;
         let sil = util::storage(device, "relief silhouette map", sil_bytes)?;
         let tree = util::storage(device, "relief silhouette tree", total * 16)?;
-        let out = RayOutputs::new(device, width, height)?;
+        let out = RayOutputs::new(device, width, height, false)?;
         let module =
             device.create_shader_module(wgpu::include_wgsl!("../../../shaders/silhouette.wgsl"));
         let cs = wgpu::ShaderStages::COMPUTE;

@@ -255,15 +255,12 @@ fn cpu_depth<T: Terrain>(
 }
 
 fn gpu_rays(g: &Gpu, t: &GpuTerrain, method: Method, cam: &Camera) -> (Vec<f32>, Vec<[f32; 4]>) {
+    let normals = RayEffects {
+        normals: true,
+        ..Default::default()
+    };
     let pass = RayCastPass::new(
-        &g.device,
-        t,
-        None,
-        None,
-        method,
-        RayEffects::default(),
-        cam.width,
-        cam.height,
+        &g.device, t, None, None, method, normals, cam.width, cam.height,
     )
     .unwrap();
     submit(g, |e| {
@@ -794,6 +791,67 @@ fn effects_change_the_colour_not_the_depth_and_craters_match_the_cpu() {
     let (frac, bad) = agreement(&frame.depth, &cd, |i| 1e-3 * f64::from(cd[i]));
     assert!(frac >= 0.999, "deformed terrain: {frac} ({bad})");
     assert_ne!(frame.depth, bare.depth, "the craters are visible");
+}
+
+/// The normal output is an effect like the others: without it the ray cast writes no normals
+/// (reading them is an error and their buffer is a 16-byte placeholder), with it the frame's
+/// normals are the CPU trace's, and the picture, depth and passes are the same either way.
+#[test]
+fn normals_are_written_only_when_the_scene_names_them() {
+    let Some(g) = gpu() else { return };
+    let (w, h) = (129, 129);
+    let s = synthetic(w, h);
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let cam = Camera::new(
+        Vec3::new(2.0, 3.0, 180.0),
+        Vec3::new(64.0, 64.0, 40.0),
+        60.0,
+        96,
+        72,
+    )
+    .unwrap();
+    let mut bare = Renderer::new(&g.device, &g.queue, &hf, Scene::new()).unwrap();
+    let with = Scene::new().with_effect(Effect::NormalOutput);
+    assert_eq!(with.frame_passes(), Scene::new().frame_passes());
+    let mut normals = Renderer::new(&g.device, &g.queue, &hf, with).unwrap();
+    let (a, b) = (
+        bare.render(&g.device, &g.queue, &cam).unwrap(),
+        normals.render(&g.device, &g.queue, &cam).unwrap(),
+    );
+    assert_eq!((&a.depth, &a.color), (&b.depth, &b.color));
+    let out = bare.outputs().unwrap();
+    assert!(!out.has_normals() && out.normal.size() == 16);
+    assert!(out.read_normals(&g.device, &g.queue).is_err());
+    let out = normals.outputs().unwrap();
+    assert_eq!(out.normal.size(), 96 * 72 * 16);
+    let n = out.read_normals(&g.device, &g.queue).unwrap();
+    // Against the CPU trace of the same terrain: hit pixels carry its normal, misses zero.
+    let mut buf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
+    let mip = MaxMip::build(&hf, &mut buf).unwrap();
+    let tracer = RayTracer::new(&hf, Surface::Triangles);
+    let (cd, cn) = cpu_depth(&hf, &cam, |r| {
+        tracer
+            .trace_maxmip(r, &mip)
+            .unwrap()
+            .hit
+            .map(|h| (h.t, h.normal))
+    });
+    let (mut hits, mut close) = (0, 0);
+    for (((gn, c), d), gd) in n.iter().zip(&cn).zip(&cd).zip(&b.depth) {
+        if !gd.is_finite() {
+            assert_eq!(gn, &[0.0; 4], "a miss has no normal");
+        } else if d.is_finite() {
+            hits += 1;
+            assert_eq!(gn[3], 1.0);
+            let dot = gn[0] * c.x + gn[1] * c.y + gn[2] * c.z;
+            close += usize::from(dot > 0.9999);
+        }
+    }
+    assert!(hits > n.len() / 4, "{hits} hits");
+    assert!(
+        close as f64 >= 0.995 * hits as f64,
+        "{close} of {hits} normals agree"
+    );
 }
 
 /// The depth buffer of `mesh` (already uploaded) drawn from `cam`.
@@ -1813,23 +1871,35 @@ fn render_targets_and_ray_outputs_past_the_device_limits_are_errors() {
             "{w}x{h}"
         );
     }
-    // 64 x 64 pixels: normals 65,536 bytes, the limit; one more row is over.
-    assert!(relief_wgpu::raycast::RayOutputs::new(d, 64, 64).is_ok());
-    match relief_wgpu::raycast::RayOutputs::new(d, 64, 65) {
-        Err(relief_wgpu::Error::TooLarge { what, bytes, limit }) => {
-            assert_eq!((what, bytes, limit), ("relief normals out", 66_560, 65_536));
+    // 64 x 64 pixels: normals 65,536 bytes, the limit; one more row is over. Without normals
+    // the depth (4 bytes a pixel) reaches the limit at 64 x 256.
+    use relief_wgpu::raycast::RayOutputs;
+    assert!(RayOutputs::new(d, 64, 64, true).is_ok());
+    assert!(RayOutputs::new(d, 64, 256, false).is_ok());
+    for (h, normals, what, bytes) in [
+        (65, true, "relief normals out", 66_560),
+        (257, false, "relief depth", 65_792),
+    ] {
+        match RayOutputs::new(d, 64, h, normals) {
+            Err(relief_wgpu::Error::TooLarge {
+                what: w,
+                bytes: b,
+                limit,
+            }) => {
+                assert_eq!((w, b, limit), (what, bytes, 65_536));
+            }
+            other => panic!("expected TooLarge, got {other:?}"),
         }
-        other => panic!("expected TooLarge, got {other:?}"),
     }
     let s = synthetic(33, 33);
     let hf = Heightfield::new(&s, 33, 33).unwrap();
-    let scene = Scene::new().with_effect(Effect::DepthOutput);
+    let scene = Scene::new().with_effects(&[Effect::DepthOutput, Effect::NormalOutput]);
     let mut r = Renderer::new(d, &small.queue, &hf, scene).unwrap();
     let (eye, at) = (Vec3::new(-20.0, -20.0, 60.0), Vec3::new(16.0, 16.0, 0.0));
     let fits = Camera::new(eye, at, 60.0, 64, 16).unwrap();
     // Outputs that fit a binding, a depth target wider than a texture may be.
     let wide = Camera::new(eye, at, 60.0, 300, 4).unwrap();
-    // A depth target that fits, outputs that do not.
+    // A depth target that fits, normals that do not.
     let tall = Camera::new(eye, at, 60.0, 64, 80).unwrap();
     assert!(r.render(d, &small.queue, &fits).is_ok());
     let e = r.render(d, &small.queue, &wide).unwrap_err();
@@ -1838,14 +1908,18 @@ fn render_targets_and_ray_outputs_past_the_device_limits_are_errors() {
     assert!(matches!(e, relief_wgpu::Error::TooLarge { .. }), "{e}");
     // And the renderer still draws a frame that fits.
     assert!(r.render(d, &small.queue, &fits).is_ok());
+    // Without the normal output the tall image fits.
+    let scene = Scene::new().with_effect(Effect::DepthOutput);
+    let mut r = Renderer::new(d, &small.queue, &hf, scene).unwrap();
+    assert!(r.render(d, &small.queue, &tall).is_ok());
 
     // Four 8 x 8 workgroups along a side: 32 threads. Wider images and terrains are refused
     // before anything is dispatched.
     let few = small_gpu(g, |l| l.max_compute_workgroups_per_dimension = 4);
     let (d, q) = (&few.device, &few.queue);
-    assert!(relief_wgpu::raycast::RayOutputs::new(d, 32, 32).is_ok());
+    assert!(RayOutputs::new(d, 32, 32, true).is_ok());
     for (w, h) in [(33, 8), (8, 33)] {
-        let r = relief_wgpu::raycast::RayOutputs::new(d, w, h);
+        let r = RayOutputs::new(d, w, h, false);
         assert!(
             matches!(r, Err(relief_wgpu::Error::Unsupported(_))),
             "{w}x{h}"

@@ -69,7 +69,8 @@ pub struct RenderArgs {
     /// Rendering method.
     #[arg(long, value_enum, default_value = "maxmip")]
     method: RenderMethod,
-    /// Comma-separated effects: lighting, shadows, detail, deformations, fog, water, depth.
+    /// Comma-separated effects: lighting, shadows, detail, deformations, fog, water, depth,
+    /// normals.
     #[arg(long, value_name = "LIST", default_value = "")]
     effects: String,
     /// Water surface for the `water` effect: little-endian f32, one world height per DEM
@@ -102,6 +103,10 @@ pub struct RenderArgs {
     /// Depth image: little-endian f32, row-major, distance along the ray, +inf for a miss.
     #[arg(long, value_name = "PATH")]
     depth_out: Option<PathBuf>,
+    /// World normals of the hits: little-endian f32, three per pixel (x, y, z), row-major,
+    /// zeros for a miss (needs `--effects normals`, GPU ray casting).
+    #[arg(long, value_name = "PATH")]
+    normals_out: Option<PathBuf>,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -144,6 +149,8 @@ pub(crate) struct Rendered {
     /// GPU scenes: the CPU's time recording a frame's passes (`PassTiming::cpu_ms` summed,
     /// median over frames).
     record_ms: Option<f64>,
+    /// The last frame's world normals, with the `normals` effect.
+    normals: Option<Vec<[f32; 3]>>,
 }
 
 fn median(v: &mut [f64]) -> f64 {
@@ -298,6 +305,7 @@ fn render_gpu(
             setup,
             passes: medians(&frames),
             record_ms: None,
+            normals: None,
         });
     }
     let method = match a.method {
@@ -371,6 +379,15 @@ fn render_gpu(
         image = Some(img);
     }
     let img = image.ok_or_else(|| CliError("no frame rendered".into()))?;
+    let normals = match r.outputs() {
+        Some(o) if effects.contains(&Effect::NormalOutput) => Some(
+            o.read_normals(&gpu.device, &gpu.queue)?
+                .into_iter()
+                .map(|n| [n[0], n[1], n[2]])
+                .collect(),
+        ),
+        _ => None,
+    };
     Ok(Rendered {
         width: img.width,
         height: img.height,
@@ -396,6 +413,7 @@ fn render_gpu(
         setup,
         passes: medians(&frames),
         record_ms: Some(median(&mut record)),
+        normals,
     })
 }
 
@@ -471,7 +489,10 @@ pub(crate) fn render_cpu(
     march: bool,
     effects: &[Effect],
 ) -> CliResult<Rendered> {
-    if let Some(e) = effects.iter().find(|e| **e == Effect::DepthOutput) {
+    if let Some(e) = effects
+        .iter()
+        .find(|e| matches!(e, Effect::DepthOutput | Effect::NormalOutput))
+    {
         return Err(CliError(format!(
             "effect '{}' needs --backend gpu (the CPU renders lighting, shadows, detail, deformations, fog, water)",
             e.name()
@@ -639,6 +660,7 @@ pub(crate) fn render_cpu(
         setup,
         passes,
         record_ms: None,
+        normals: None,
     })
 }
 
@@ -685,6 +707,7 @@ fn render_cpu_silhouette(
         setup: Vec::new(),
         passes: vec![("silhouette_trace".to_string(), trace_ms)],
         record_ms: None,
+        normals: None,
     })
 }
 
@@ -721,6 +744,9 @@ pub fn run(a: &RenderArgs) -> CliResult {
     if a.water_surface.is_some() && !effects.contains(&Effect::Water) {
         return Err(CliError("--water-surface needs --effects water".into()));
     }
+    if a.normals_out.is_some() && !effects.contains(&Effect::NormalOutput) {
+        return Err(CliError("--normals-out needs --effects normals".into()));
+    }
     if a.water_surface.is_some() && a.backend == Backend::Cpu {
         return Err(CliError("--water-surface needs --backend gpu".into()));
     }
@@ -746,6 +772,9 @@ pub fn run(a: &RenderArgs) -> CliResult {
     write_png(&a.out, r.width, r.height, &r.color)?;
     if let Some(p) = &a.depth_out {
         relief_io::write_raw_f32(p, &r.depth)?;
+    }
+    if let (Some(p), Some(n)) = (&a.normals_out, &r.normals) {
+        relief_io::write_raw_f32(p, n.as_flattened())?;
     }
     let hits = r.depth.iter().filter(|d| d.is_finite()).count();
     let frame_ms: f64 = r.passes.iter().map(|p| p.1).sum();
