@@ -1,7 +1,7 @@
 //! `relief rbf`: outputs, agreement with the core, and bad input.
 
 mod common;
-use common::relief;
+use common::{read_f32, relief};
 
 use relief_core::glam::Vec2;
 use relief_core::rbf::{AdaptiveGrid, Cell, InfluenceSets, Rbf, RbfOptions};
@@ -11,14 +11,6 @@ use std::process::Output;
 fn write_raw(path: &Path, values: &[f32]) {
     let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
     std::fs::write(path, bytes).unwrap();
-}
-
-fn read_raw(path: &Path) -> Vec<f32> {
-    std::fs::read(path)
-        .unwrap()
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect()
 }
 
 fn read_cells(path: &Path) -> Vec<Cell> {
@@ -121,7 +113,7 @@ fn outputs_tile_the_domain_and_match_the_core() {
     let mut e = vec![0; InfluenceSets::entries_len(&grid, &opts).unwrap()];
     let sets = InfluenceSets::build(&grid, &opts, &mut o, &mut e).unwrap();
     let rbf = Rbf::new(grid, sets, &opts).unwrap();
-    let approx = read_raw(&dir.path().join("approx.f32"));
+    let approx = read_f32(&dir.path().join("approx.f32"));
     assert_eq!(approx.len(), (w * h) as usize);
     let (mut max_diff, mut sq) = (0.0f64, 0.0f64);
     for y in 0..h {
@@ -170,7 +162,7 @@ fn constant_dem_with_offset_is_exact() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let approx = read_raw(&dir.path().join("approx.f32"));
+    let approx = read_f32(&dir.path().join("approx.f32"));
     assert!(approx.iter().all(|&v| v == 103.25));
     let cells = read_cells(&dir.path().join("cells.csv"));
     assert!(cells.iter().all(|c| c.value == 103.25));
@@ -269,7 +261,7 @@ fn bundled_dem_runs() {
     assert_eq!(v["width"], 1025);
     let n = v["cells"].as_u64().unwrap();
     assert!(n < 1025 * 1025 / 4 + 2 * 1025, "{n}");
-    let approx = read_raw(&out_f);
+    let approx = read_f32(&out_f);
     assert_eq!(approx.len(), 1025 * 1025);
     assert!(approx.iter().all(|v| v.is_finite()));
     // Within the DEM's range (0 .. 4379.8 m) since every value is a convex combination.

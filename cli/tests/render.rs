@@ -4,7 +4,7 @@
 //! `RELIEF_REQUIRE_GPU=1` (CI), which makes them fail.
 
 mod common;
-use common::{assert_one_line_error, bundled, relief_env};
+use common::{assert_one_line_error, bundled, read_f32, relief_env};
 
 use std::path::Path;
 
@@ -55,12 +55,8 @@ fn render(dir: &Path, name: &str, extra: &[&str]) -> Option<(serde_json::Value, 
     }
     assert!(out.status.success(), "{err}");
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    let bytes = std::fs::read(&depth).unwrap();
-    assert_eq!(bytes.len(), 160 * 120 * 4);
-    let d = bytes
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
+    let d = read_f32(Path::new(&depth));
+    assert_eq!(d.len(), 160 * 120);
     let png_bytes = std::fs::read(&png).unwrap();
     assert_eq!(&png_bytes[1..4], b"PNG");
     Some((v, d))
@@ -214,11 +210,7 @@ fn gpu_and_cpu_depth_agree_and_json_lists_the_passes() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        std::fs::read(&d)
-            .unwrap()
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect()
+        read_f32(Path::new(&d))
     };
     let (sc, sg) = (depth_of("cpu"), depth_of("gpu"));
     let same = sg
@@ -555,11 +547,7 @@ fn normals_out_writes_the_hits_normals_only_when_the_effect_is_named() {
         read_png(&dir.path().join("normals.png")),
         read_png(&dir.path().join("bare.png"))
     );
-    let n: Vec<f32> = std::fs::read(&nf)
-        .unwrap()
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
+    let n = read_f32(Path::new(&nf));
     assert_eq!(n.len(), 3 * d.len());
     let hits = d.iter().filter(|x| x.is_finite()).count();
     assert!(hits > d.len() / 4, "{hits} hits");

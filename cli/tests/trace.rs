@@ -2,7 +2,7 @@
 //! fields, and one-line errors with exit code 2 on bad input.
 
 mod common;
-use common::{assert_one_line_error, bundled, relief};
+use common::{assert_one_line_error, bundled, read_f32, relief};
 
 use std::path::{Path, PathBuf};
 
@@ -44,12 +44,8 @@ fn trace(dir: &Path, method: &str, surface: &str, extra: &[&str]) -> (Vec<f32>, 
         String::from_utf8_lossy(&out.stderr)
     );
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
-    let bytes = std::fs::read(&out_path).unwrap();
-    assert_eq!(bytes.len(), 40 * 24 * 4);
-    let depth: Vec<f32> = bytes
-        .chunks_exact(4)
-        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
+    let depth = read_f32(&out_path);
+    assert_eq!(depth.len(), 40 * 24);
     (depth, v)
 }
 

@@ -254,6 +254,33 @@ fn cpu_depth<T: Terrain>(
     (d, n)
 }
 
+/// The CPU's exact trace of `hf` (triangles, max-mip skipping): the depth and normal of each
+/// pixel of `cam`, as [`cpu_depth`].
+fn cpu_trace(hf: &Heightfield<'_, f32>, cam: &Camera) -> (Vec<f32>, Vec<Vec3>) {
+    let mut buf = vec![0.0f32; MaxMip::len(hf.width(), hf.height()).unwrap()];
+    let mip = MaxMip::build(hf, &mut buf).unwrap();
+    let tracer = RayTracer::new(hf, Surface::Triangles);
+    cpu_depth(hf, cam, |r| {
+        tracer
+            .trace_maxmip(r, &mip)
+            .unwrap()
+            .hit
+            .map(|h| (h.t, h.normal))
+    })
+}
+
+/// An oblique 96 x 72 view over the 129 x 129 [`synthetic`] terrain.
+fn oblique_view() -> Camera {
+    Camera::new(
+        Vec3::new(2.0, 3.0, 180.0),
+        Vec3::new(64.0, 64.0, 40.0),
+        60.0,
+        96,
+        72,
+    )
+    .unwrap()
+}
+
 fn gpu_rays(g: &Gpu, t: &GpuTerrain, method: Method, cam: &Camera) -> (Vec<f32>, Vec<[f32; 4]>) {
     let normals = RayEffects {
         normals: true,
@@ -315,18 +342,9 @@ fn maxmip_ray_casting_matches_cpu_trace() {
     let real = dem.heightfield().unwrap();
     for (name, hf) in [("synthetic", synth), ("puget", real)] {
         let t = GpuTerrain::new(&g.device, &g.queue, &hf, false).unwrap();
-        let mut buf = vec![0.0f32; MaxMip::len(hf.width(), hf.height()).unwrap()];
-        let mip = MaxMip::build(&hf, &mut buf).unwrap();
-        let tracer = RayTracer::new(&hf, Surface::Triangles);
         for (k, cam) in cameras(&hf).iter().enumerate() {
             let (gd, gn) = gpu_rays(g, &t, Method::MaxMip, cam);
-            let (cd, cn) = cpu_depth(&hf, cam, |r| {
-                tracer
-                    .trace_maxmip(r, &mip)
-                    .unwrap()
-                    .hit
-                    .map(|h| (h.t, h.normal))
-            });
+            let (cd, cn) = cpu_trace(&hf, cam);
             let hits = cd.iter().filter(|t| t.is_finite()).count();
             assert!(
                 hits > cd.len() / 4,
@@ -719,14 +737,7 @@ fn effects_change_the_colour_not_the_depth_and_craters_match_the_cpu() {
     let (w, h) = (129, 129);
     let s = synthetic(w, h);
     let hf = Heightfield::new(&s, w, h).unwrap();
-    let cam = Camera::new(
-        Vec3::new(2.0, 3.0, 180.0),
-        Vec3::new(64.0, 64.0, 40.0),
-        60.0,
-        96,
-        72,
-    )
-    .unwrap();
+    let cam = oblique_view();
     let bare = Renderer::new(&g.device, &g.queue, &hf, Scene::new())
         .unwrap()
         .render(&g.device, &g.queue, &cam)
@@ -778,16 +789,7 @@ fn effects_change_the_colour_not_the_depth_and_craters_match_the_cpu() {
         .fold(0.0f32, f32::max);
     assert!(worst < 1e-4, "deformed heights differ by {worst}");
     let dhf = Heightfield::new(&cpu_h, w, h).unwrap();
-    let mut buf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
-    let mip = MaxMip::build(&dhf, &mut buf).unwrap();
-    let tracer = RayTracer::new(&dhf, Surface::Triangles);
-    let (cd, _) = cpu_depth(&dhf, &cam, |r| {
-        tracer
-            .trace_maxmip(r, &mip)
-            .unwrap()
-            .hit
-            .map(|h| (h.t, h.normal))
-    });
+    let (cd, _) = cpu_trace(&dhf, &cam);
     let (frac, bad) = agreement(&frame.depth, &cd, |i| 1e-3 * f64::from(cd[i]));
     assert!(frac >= 0.999, "deformed terrain: {frac} ({bad})");
     assert_ne!(frame.depth, bare.depth, "the craters are visible");
@@ -802,14 +804,7 @@ fn normals_are_written_only_when_the_scene_names_them() {
     let (w, h) = (129, 129);
     let s = synthetic(w, h);
     let hf = Heightfield::new(&s, w, h).unwrap();
-    let cam = Camera::new(
-        Vec3::new(2.0, 3.0, 180.0),
-        Vec3::new(64.0, 64.0, 40.0),
-        60.0,
-        96,
-        72,
-    )
-    .unwrap();
+    let cam = oblique_view();
     let mut bare = Renderer::new(&g.device, &g.queue, &hf, Scene::new()).unwrap();
     let with = Scene::new().with_effect(Effect::NormalOutput);
     assert_eq!(with.frame_passes(), Scene::new().frame_passes());
@@ -826,16 +821,7 @@ fn normals_are_written_only_when_the_scene_names_them() {
     assert_eq!(out.normal.size(), 96 * 72 * 16);
     let n = out.read_normals(&g.device, &g.queue).unwrap();
     // Against the CPU trace of the same terrain: hit pixels carry its normal, misses zero.
-    let mut buf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
-    let mip = MaxMip::build(&hf, &mut buf).unwrap();
-    let tracer = RayTracer::new(&hf, Surface::Triangles);
-    let (cd, cn) = cpu_depth(&hf, &cam, |r| {
-        tracer
-            .trace_maxmip(r, &mip)
-            .unwrap()
-            .hit
-            .map(|h| (h.t, h.normal))
-    });
+    let (cd, cn) = cpu_trace(&hf, &cam);
     let (mut hits, mut close) = (0, 0);
     for (((gn, c), d), gd) in n.iter().zip(&cn).zip(&cd).zip(&b.depth) {
         if !gd.is_finite() {
@@ -1694,14 +1680,7 @@ fn pass_times_come_from_gpu_timestamps_when_the_device_has_them() {
     let (w, h) = (129, 129);
     let s = synthetic(w, h);
     let hf = Heightfield::new(&s, w, h).unwrap();
-    let cam = Camera::new(
-        Vec3::new(2.0, 3.0, 180.0),
-        Vec3::new(64.0, 64.0, 40.0),
-        60.0,
-        96,
-        72,
-    )
-    .unwrap();
+    let cam = oblique_view();
     let timing = wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS;
     // headless() asks hardware adapters for timestamps, never CPU ones (lavapipe's do not wait
     // for compute work).

@@ -68,6 +68,15 @@ pub fn write_f32(p: &Path, v: &[f32]) -> String {
     p.to_str().unwrap().to_string()
 }
 
+/// Reads raw little-endian f32 from `p` (`--depth-out`, `--normals-out`, `relief rbf --out`).
+pub fn read_f32(p: &Path) -> Vec<f32> {
+    std::fs::read(p)
+        .unwrap()
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}
+
 /// Reads an OBJ's vertices and triangles (indices from 0; `f a/b/c` forms keep the position).
 pub fn read_obj(p: &Path) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
     let s = std::fs::read_to_string(p).unwrap();
