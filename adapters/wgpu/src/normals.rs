@@ -41,7 +41,9 @@ pub struct NormalPass {
 impl NormalPass {
     /// A pass writing the normals of `terrain` with `method`. `detail` is an optional tiled
     /// detail map `(samples, width, height)` in local height units, added to the base (the
-    /// composed surface). [`Error::Unsupported`] for an empty or mis-sized detail map.
+    /// composed surface). [`Error::Unsupported`] for an empty or mis-sized detail map,
+    /// [`Error::TooLarge`] when the normals (16 bytes a sample) do not fit one storage buffer
+    /// binding of the device.
     pub fn new(
         device: &wgpu::Device,
         queue: &wgpu::Queue,
@@ -58,7 +60,8 @@ impl NormalPass {
     /// `((width - 1) * factor + 1) x ((height - 1) * factor + 1)` samples at the base spacing
     /// divided by `factor`. [`Error::Core`] with [`relief_core::Error::InvalidFactor`] for
     /// a factor that is not a power of two; [`Error::Unsupported`] for an empty or mis-sized
-    /// detail map or a refined grid beyond the device's storage binding size.
+    /// detail map; [`Error::TooLarge`] for a refined grid whose normals (16 bytes a sample) do
+    /// not fit one storage buffer binding of the device.
     ///
     /// ```no_run
     /// use relief_core::{Heightfield, NormalMethod};
@@ -110,11 +113,11 @@ impl NormalPass {
             return Err(relief_core::Error::SizeOverflow.into());
         };
         util::check_dispatch(device, w, h)?;
-        if u64::from(w) * u64::from(h) * 16 > device.limits().max_storage_buffer_binding_size {
-            return Err(Error::Unsupported(
-                "composed normal map beyond the device's storage buffer binding size",
-            ));
-        }
+        util::check_storage(
+            device,
+            "relief normal map",
+            u64::from(w) * u64::from(h) * 16,
+        )?;
         let s = terrain.scale();
         let k = (1u32 << shift) as f32;
         let (dx, dy) = (s.dx / k, s.dy / k);

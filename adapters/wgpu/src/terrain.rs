@@ -102,8 +102,9 @@ impl GpuTerrain {
     /// Uploads `terrain`'s local heights. With `dynamic`, keeps a second working copy that
     /// [`GpuTerrain::encode_deform`] rewrites from the base every frame. Nothing is dispatched:
     /// record [`GpuTerrain::encode_maxmip`] before tracing with the pyramid.
-    /// [`Error::Core`] for a grid smaller than 2 x 2, [`Error::Unsupported`] when it does not
-    /// fit the device's storage buffer binding size.
+    /// [`Error::Core`] for a grid smaller than 2 x 2, [`Error::TooLarge`] when its heights (4
+    /// bytes a sample) or max-mip pyramid do not fit one storage buffer binding of the device
+    /// (a 128 MiB binding holds 5793 x 5793 samples).
     pub fn new<T: Terrain>(
         device: &wgpu::Device,
         _queue: &wgpu::Queue,
@@ -118,13 +119,9 @@ impl GpuTerrain {
             }
             .into());
         }
-        let limit = device.limits().max_storage_buffer_binding_size;
-        let bytes = w as u64 * h as u64 * 16; // the normal map is the largest per-sample buffer
-        if bytes > limit {
-            return Err(Error::Unsupported(
-                "heightfield larger than the device's storage buffer binding size",
-            ));
-        }
+        // Checked before the heights are gathered: 4 bytes a sample (a normal map, 16 a sample,
+        // is checked by the `NormalPass` a lit scene builds).
+        util::check_storage(device, "relief heights", w as u64 * h as u64 * 4)?;
         let mut local = Vec::with_capacity(w as usize * h as usize);
         let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
         for y in 0..h {

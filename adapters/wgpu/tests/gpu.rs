@@ -1891,6 +1891,30 @@ fn render_targets_and_ray_outputs_past_the_device_limits_are_errors() {
     let scene = Scene::new().with_effect(Effect::DepthOutput);
     let mut r = Renderer::new(d, &small.queue, &hf, scene).unwrap();
     assert!(r.render(d, &small.queue, &tall).is_ok());
+    // A terrain takes 4 bytes a sample, its normal map (lit scenes only) 16: 100 x 100 samples
+    // fit a 64 KiB binding unlit, not lit; 129 x 129 (66,564 bytes of heights) not at all.
+    let s100 = synthetic(100, 100);
+    let hf100 = Heightfield::new(&s100, 100, 100).unwrap();
+    let q = &small.queue;
+    assert!(Renderer::new(d, q, &hf100, Scene::new()).is_ok());
+    let lit = Renderer::new(d, q, &hf100, Scene::new().with_effect(Effect::Lighting));
+    assert!(matches!(
+        lit,
+        Err(relief_wgpu::Error::TooLarge {
+            what: "relief normal map",
+            ..
+        })
+    ));
+    let s129 = synthetic(129, 129);
+    let hf129 = Heightfield::new(&s129, 129, 129).unwrap();
+    let big = GpuTerrain::new(d, q, &hf129, false);
+    assert!(matches!(
+        big,
+        Err(relief_wgpu::Error::TooLarge {
+            what: "relief heights",
+            ..
+        })
+    ));
 
     // Four 8 x 8 workgroups along a side: 32 threads. Wider images and terrains are refused
     // before anything is dispatched.
