@@ -53,8 +53,8 @@ pub struct RbfPass {
 
 impl RbfPass {
     /// Uploads `rbf`'s cells, the cell index of every sample and `sets` (the influence sets
-    /// `rbf` was built with). [`Error::Unsupported`] when they exceed the device's storage
-    /// buffer binding size.
+    /// `rbf` was built with). [`Error::TooLarge`] when one of them exceeds the device's
+    /// storage buffer binding size.
     pub fn new(
         device: &wgpu::Device,
         rbf: &Rbf<'_>,
@@ -80,11 +80,14 @@ impl RbfPass {
             entries.extend_from_slice(sets.of(j));
             offsets.push(entries.len() as u32);
         }
-        let limit = device.limits().max_storage_buffer_binding_size;
-        if entries.len() as u64 * 4 > limit || index.len() as u64 * 4 > limit {
-            return Err(Error::Unsupported(
-                "influence sets larger than the device's storage buffer binding size",
-            ));
+        // Each buffer is checked against the device's binding size as it is made
+        // (`Error::TooLarge`, naming it).
+        for (what, bytes) in [
+            ("relief rbf entries", entries.len() * 4),
+            ("relief rbf index", index.len() * 4),
+            ("relief rbf cells", cell_data.len() * 16),
+        ] {
+            util::check_storage(device, what, bytes as u64)?;
         }
         let module = device
             .create_shader_module(wgpu::include_wgsl!("../../../shaders/rbf_discretize.wgsl"));
