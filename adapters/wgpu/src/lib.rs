@@ -80,8 +80,8 @@ pub enum Error {
     Core(relief_core::Error),
     /// A size or option does not fit the device or the pass: what and why.
     Unsupported(&'static str),
-    /// A storage buffer larger than the device allows in one buffer or one binding
-    /// (`max_buffer_size`, `max_storage_buffer_binding_size`): a smaller image or terrain fits.
+    /// A buffer larger than the device allows (`max_buffer_size`, and for storage buffers
+    /// `max_storage_buffer_binding_size`): a smaller image, terrain or mesh fits.
     TooLarge {
         /// The buffer (its label).
         what: &'static str,
@@ -102,7 +102,7 @@ impl core::fmt::Display for Error {
             Error::Unsupported(m) => write!(f, "unsupported: {m}"),
             Error::TooLarge { what, bytes, limit } => write!(
                 f,
-                "{what}: {bytes} bytes, more than this device allows in one buffer ({limit}): use a smaller image or terrain"
+                "{what}: {bytes} bytes, more than this device allows in one buffer ({limit}): use a smaller image, terrain or mesh"
             ),
         }
     }

@@ -149,11 +149,7 @@ impl DepthTarget {
     ) -> Result<Vec<[u8; 4]>, Error> {
         let row = (self.width * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
         let size = row as u64 * self.height as u64;
-        if size > device.limits().max_buffer_size {
-            return Err(Error::Unsupported(
-                "image larger than the device's max_buffer_size for its readback",
-            ));
-        }
+        util::check_buffer(device, "relief texture readback", size)?;
         let staging = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("relief texture readback"),
             size,
@@ -282,7 +278,7 @@ pub struct MeshPass {
 }
 
 /// Grows `buf` to hold `need` bytes: the next power of two (at least 256), capped at the
-/// device's `max_buffer_size`. [`Error::Unsupported`] when `need` itself is over that limit (a
+/// device's `max_buffer_size`. [`Error::TooLarge`] when `need` itself is over that limit (a
 /// buffer wgpu would refuse with a validation error, which panics in its default handler); the
 /// buffer is then left as it was.
 fn grow(
@@ -291,30 +287,19 @@ fn grow(
     need: u64,
     usage: wgpu::BufferUsages,
 ) -> Result<(), Error> {
-    let limit = device.limits().max_buffer_size;
-    if need > limit {
-        return Err(too_large(usage));
-    }
+    util::check_buffer(device, buf_label(usage), need)?;
     if buf.size() < need {
+        let limit = device.limits().max_buffer_size;
         // `limit` is a multiple of 4 on every backend; the size stays one for `write_buffer`.
         let size = need.next_power_of_two().max(256).min(limit & !3);
         *buf = device.create_buffer(&wgpu::BufferDescriptor {
-            label: buf_label(usage),
+            label: Some(buf_label(usage)),
             size,
             usage: usage | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
     }
     Ok(())
-}
-
-/// The error for a buffer of `usage` over the device's limit.
-fn too_large(usage: wgpu::BufferUsages) -> Error {
-    Error::Unsupported(if usage.contains(wgpu::BufferUsages::INDEX) {
-        "mesh indices larger than the device's max_buffer_size"
-    } else {
-        "mesh vertices larger than the device's max_buffer_size"
-    })
 }
 
 /// Grows `buf` to hold `bytes` ([`grow`]) and writes them at its start (nothing for none).
@@ -332,11 +317,11 @@ fn write_growing(
     Ok(())
 }
 
-fn buf_label(usage: wgpu::BufferUsages) -> Option<&'static str> {
+fn buf_label(usage: wgpu::BufferUsages) -> &'static str {
     if usage.contains(wgpu::BufferUsages::INDEX) {
-        Some("relief mesh indices")
+        "relief mesh indices"
     } else {
-        Some("relief mesh vertices")
+        "relief mesh vertices"
     }
 }
 
@@ -415,7 +400,7 @@ impl MeshPass {
         });
         let mk = |usage| {
             device.create_buffer(&wgpu::BufferDescriptor {
-                label: buf_label(usage),
+                label: Some(buf_label(usage)),
                 size: 256,
                 usage: usage | wgpu::BufferUsages::COPY_DST,
                 mapped_at_creation: false,
@@ -455,7 +440,7 @@ impl MeshPass {
     /// Uploads this frame's mesh: world positions and a triangle list (three indices per
     /// triangle, e.g. [`relief_core::refine::Refiner::triangles`]). Queue writes only (no
     /// stall); the buffers grow to the next power of two when the mesh does not fit (capped at
-    /// the device's `max_buffer_size`). [`Error::Unsupported`] when the vertices or indices are
+    /// the device's `max_buffer_size`). [`Error::TooLarge`] when the vertices or indices are
     /// larger than that limit: nothing is uploaded and the previous mesh stays.
     pub fn upload(
         &mut self,
@@ -478,7 +463,7 @@ impl MeshPass {
     /// [`relief_core::Terrain::position`] (the position [`relief_core::refine::Refiner::triangles`]
     /// gives a vertex, bit for bit): the vertex buffer that
     /// [`MeshPass::upload_grid_triangles`] indexes. Upload it once per terrain (and again after
-    /// an edit); each frame then writes only its indices. [`Error::Unsupported`] when the
+    /// an edit); each frame then writes only its indices. [`Error::TooLarge`] when the
     /// grid's vertices (12 bytes a sample) are larger than the device's `max_buffer_size`:
     /// draw such a terrain with [`MeshPass::upload`] (only the frame's vertices) instead.
     ///
@@ -502,11 +487,7 @@ impl MeshPass {
         // Checked before the vertices are built (a grid past the limit may not fit in memory
         // either).
         let bytes = u64::from(w) * u64::from(h) * 12;
-        if bytes > device.limits().max_buffer_size {
-            return Err(Error::Unsupported(
-                "grid vertices larger than the device's max_buffer_size",
-            ));
-        }
+        util::check_buffer(device, "relief grid vertices", bytes)?;
         let vb: Vec<[f32; 3]> = (0..h)
             .flat_map(|y| (0..w).map(move |x| (x, y)))
             .filter_map(|(x, y)| terrain.position(x, y))
@@ -588,17 +569,22 @@ impl MeshPass {
     ) -> Result<(), Error> {
         let ib: &[u8] = bytemuck::cast_slice(indices);
         // Both checked before either buffer changes, so a refused mesh leaves the last one.
-        let limit = device.limits().max_buffer_size;
-        if ib.len() as u64 > limit {
-            return Err(too_large(wgpu::BufferUsages::INDEX));
-        }
+        util::check_buffer(
+            device,
+            buf_label(wgpu::BufferUsages::INDEX),
+            ib.len() as u64,
+        )?;
         if u32::try_from(indices.len()).is_err() {
             return Err(Error::Unsupported(
                 "more mesh indices than a u32 draw count",
             ));
         }
-        if vb.is_some_and(|v| v.len() as u64 > limit) {
-            return Err(too_large(wgpu::BufferUsages::VERTEX));
+        if let Some(v) = vb {
+            util::check_buffer(
+                device,
+                buf_label(wgpu::BufferUsages::VERTEX),
+                v.len() as u64,
+            )?;
         }
         if let Some(vb) = vb {
             let usage = wgpu::BufferUsages::VERTEX;

@@ -3,6 +3,24 @@
 use crate::Error;
 use wgpu::util::DeviceExt;
 
+/// [`Error::TooLarge`] when a buffer of `bytes` is more than `limit`.
+fn check_limit(what: &'static str, bytes: u64, limit: u64) -> Result<(), Error> {
+    if bytes > limit {
+        return Err(Error::TooLarge { what, bytes, limit });
+    }
+    Ok(())
+}
+
+/// [`Error::TooLarge`] when a buffer of `bytes` is more than the device allows in one buffer
+/// (`max_buffer_size`; wgpu's default handler would panic on the buffer).
+pub(crate) fn check_buffer(
+    device: &wgpu::Device,
+    what: &'static str,
+    bytes: u64,
+) -> Result<(), Error> {
+    check_limit(what, bytes, device.limits().max_buffer_size)
+}
+
 /// [`Error::TooLarge`] when a storage buffer of `bytes` is more than the device allows in one
 /// buffer or one binding (wgpu's default handler would panic on the buffer or its bind group).
 pub(crate) fn check_storage(
@@ -11,11 +29,11 @@ pub(crate) fn check_storage(
     bytes: u64,
 ) -> Result<(), Error> {
     let l = device.limits();
-    let limit = l.max_buffer_size.min(l.max_storage_buffer_binding_size);
-    if bytes > limit {
-        return Err(Error::TooLarge { what, bytes, limit });
-    }
-    Ok(())
+    check_limit(
+        what,
+        bytes,
+        l.max_buffer_size.min(l.max_storage_buffer_binding_size),
+    )
 }
 
 /// A storage buffer initialised with `contents`, usable as a copy source and destination

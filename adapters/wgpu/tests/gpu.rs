@@ -1798,21 +1798,26 @@ fn mesh_uploads_past_the_buffer_limit_are_errors_and_growth_stops_at_the_limit()
     // Reversed-Z: the cleared depth is 0, a drawn pixel's is positive.
     let covered = first.iter().filter(|&&x| x > 0.0).count();
     assert!(covered > 100, "the triangle covers {covered} pixels");
-    let unsupported = |r: Result<(), relief_wgpu::Error>, what: &str| match r {
-        Err(relief_wgpu::Error::Unsupported(m)) => assert!(m.contains(what), "{m}"),
-        other => panic!("expected an error about {what}, got {other:?}"),
+    let too_large = |r: Result<(), relief_wgpu::Error>, what: &str| match r {
+        Err(relief_wgpu::Error::TooLarge { what: w, limit, .. }) => {
+            assert_eq!((w, limit), (what, 65_532));
+        }
+        other => panic!("expected {what} too large, got {other:?}"),
     };
     // 6,000 vertices: 72,000 bytes.
     let many: Vec<[f32; 3]> = tri.iter().copied().cycle().take(6000).collect();
-    unsupported(mesh.upload(d, q, &many, &[0, 1, 2]), "vertices");
+    too_large(mesh.upload(d, q, &many, &[0, 1, 2]), "relief mesh vertices");
     // 17,001 indices: 68,004 bytes.
     let long: Vec<u32> = [0, 1, 2].into_iter().cycle().take(17_001).collect();
-    unsupported(mesh.upload(d, q, &tri, &long), "indices");
-    unsupported(mesh.upload_grid_triangles(d, q, &long), "indices");
+    too_large(mesh.upload(d, q, &tri, &long), "relief mesh indices");
+    too_large(
+        mesh.upload_grid_triangles(d, q, &long),
+        "relief mesh indices",
+    );
     // An 80 x 80 grid: 76,800 bytes of vertices.
     let s = vec![0.0f32; 80 * 80];
     let hf = Heightfield::new(&s, 80, 80).unwrap();
-    unsupported(mesh.upload_grid_vertices(d, q, &hf), "grid vertices");
+    too_large(mesh.upload_grid_vertices(d, q, &hf), "relief grid vertices");
     let same = |mesh: &MeshPass| {
         let now = mesh_depth(&small, mesh, &cam);
         now.iter()

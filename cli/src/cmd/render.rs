@@ -220,7 +220,7 @@ fn render_gpu(
         let on_grid = !a.mesh_list
             && match mesh.upload_grid_vertices(&gpu.device, &gpu.queue, hf) {
                 Ok(()) => true,
-                Err(relief_wgpu::Error::Unsupported(_)) => false,
+                Err(relief_wgpu::Error::TooLarge { .. }) => false,
                 Err(e) => return Err(e.into()),
             };
         if on_grid {
