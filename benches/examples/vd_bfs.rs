@@ -12,6 +12,9 @@
 //!   and again reading the library's own linear 8-byte records (`pack_records`; their
 //!   bfloat16 errors and radii are rounded up, so the triangles are those of the records
 //!   layout);
+//! - *stack, lookahead*: the stack walk on its own records, which also hold two per-triangle
+//!   bounds of the children's errors (`vd_lookahead`), writing a split's children as leaves
+//!   without deciding them when the bound settles them (same triangles, same order);
 //! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
 //!   records, and `Refiner::triangles` (compact vertices, renumbered) for reference.
 //!
@@ -43,7 +46,8 @@ struct Tri {
 }
 
 struct Frame<'a> {
-    /// Per vertex, row-major: error, radius, local height (one cache line per decision).
+    /// Per vertex, row-major: error, radius, local height (one cache line per decision), and
+    /// in the fourth slot the lookahead's two per-triangle bounds ([`look_bounds`]).
     rec: &'a [[f32; 4]],
     /// The library's own linear 8-byte records (`pack_records`), for the `LIB` variant.
     lib: &'a [VertexRecord],
@@ -55,6 +59,9 @@ struct Frame<'a> {
 const OWN_F32: u8 = 0;
 const OWN_F64: u8 = 1;
 const LIB: u8 = 2;
+/// [`OWN_F32`] with the lookahead of `vd_lookahead`: a split whose children the per-triangle
+/// bound in the record's fourth slot settles writes them as leaves without deciding them.
+const OWN_LOOK: u8 = 3;
 
 #[inline(always)]
 fn xy(p: u32) -> (u32, u32) {
@@ -150,6 +157,17 @@ impl Frame<'_> {
                 continue;
             };
             if split {
+                if SRC == OWN_LOOK
+                    && level + 1 < self.v.levels
+                    && (planes == 0 || level + 1 >= self.v.lazy_from)
+                    && self.settled(m, t.a)
+                {
+                    // Both children are leaves: written as the walk would pop them.
+                    out[no] = [self.index(t.a), self.index(t.l), self.index(m)];
+                    out[no + 1] = [self.index(t.r), self.index(t.a), self.index(m)];
+                    no += 2;
+                    continue;
+                }
                 stack[sp] = (
                     Tri {
                         l: t.r,
@@ -175,6 +193,25 @@ impl Frame<'_> {
             }
         }
         no
+    }
+
+    /// Whether the lookahead settles both children of the split of the triangle with split
+    /// vertex `m` and apex `a`: the largest error among the children's split vertices (the
+    /// record's bound for `a`'s side) fails SOAR's test against `m`'s own sphere, so by nesting
+    /// every child's does too.
+    #[inline(always)]
+    fn settled(&self, m: u32, a: u32) -> bool {
+        let (x, y) = xy(m);
+        let [_, rr, pz, look] = self.rec[(y * self.v.w + x) as usize];
+        let ec = f32::from_bits((look.to_bits() >> (16 * side(m, a))) << 16);
+        let c = &self.v.f32s;
+        let (dx, dy, dz) = (
+            c.eye[0] - x as f32 * c.sx,
+            c.eye[1] - y as f32 * c.sy,
+            c.eye[2] - pz,
+        );
+        let reach = ec * c.k + rr;
+        reach * reach <= dx * dx + dy * dy + dz * dz
     }
 
     /// One level, level by level: decides every triangle of `cur`, writes the split ones'
@@ -257,6 +294,54 @@ impl Frame<'_> {
     }
 }
 
+/// Which triangle of `m`'s diamond has apex `a`: 0 or 1.
+fn side(m: u32, a: u32) -> u32 {
+    let ((mx, my), (ax, ay)) = (xy(m), xy(a));
+    u32::from(ax > mx || (ax == mx && ay > my))
+}
+
+/// bfloat16 bits of `e >= 0`, rounded up.
+fn bf16_up(e: f32) -> u32 {
+    let b = e.to_bits();
+    (b >> 16) + u32::from(b & 0xffff != 0)
+}
+
+/// Writes the lookahead's bounds into the fourth slot of `rec` (`side` 0 in the low 16 bits):
+/// for each triangle `(l, r, a)` of the hierarchy above the finest level, the largest error of
+/// its children's split vertices, bfloat16 rounded up, at its split vertex.
+fn look_bounds(rec: &mut [[f32; 4]], w: u32, levels: u32, roots: [Tri; 2]) {
+    let mut stack: Vec<(Tri, u32)> = roots.iter().map(|&t| (t, 0)).collect();
+    let e = |rec: &[[f32; 4]], p: u32| {
+        let (x, y) = xy(p);
+        rec[(y * w + x) as usize][0]
+    };
+    while let Some((t, level)) = stack.pop() {
+        if level + 1 >= levels {
+            continue;
+        }
+        let m = (t.l + t.r) >> 1;
+        let ec = e(rec, (t.a + t.l) >> 1).max(e(rec, (t.r + t.a) >> 1));
+        let (x, y) = xy(m);
+        let slot = &mut rec[(y * w + x) as usize][3];
+        let bits = slot.to_bits() | (bf16_up(ec) << (16 * side(m, t.a)));
+        *slot = f32::from_bits(bits);
+        let a = Tri {
+            l: t.a,
+            r: t.l,
+            a: m,
+            planes: 0,
+        };
+        let b = Tri {
+            l: t.r,
+            r: t.a,
+            a: m,
+            planes: 0,
+        };
+        stack.push((a, level + 1));
+        stack.push((b, level + 1));
+    }
+}
+
 fn main() {
     let runs = common::runs(30);
     let dem = common::puget();
@@ -269,7 +354,7 @@ fn main() {
     let side = w - 1;
     let cam = camera(BENCH_EYE_X);
     let li = common::lean_inputs(&hf, &full, &cam);
-    let rec: Vec<[f32; 4]> = (0..li.z.len())
+    let mut rec: Vec<[f32; 4]> = (0..li.z.len())
         .map(|i| [li.err[i], li.rad[i], li.z[i], 0.0])
         .collect();
     let planes = li.planes;
@@ -283,6 +368,7 @@ fn main() {
     let mut out2 = vec![[0u32; 3]; bound];
     let mut out64 = vec![[0u32; 3]; bound + 1];
     let mut out_lib = vec![[0u32; 3]; bound + 1];
+    let mut out_look = vec![[0u32; 3]; bound + 1];
     let mut tris_g = [
         vec![[0u32; 3]; bound],
         vec![[0u32; 3]; bound],
@@ -307,6 +393,7 @@ fn main() {
             planes: 0b01_1111,
         },
     ];
+    look_bounds(&mut rec, w, 2 * side.trailing_zeros(), roots);
     for tau in [0.5f32, 1.0, 4.0] {
         let f = Frame {
             rec: &rec,
@@ -340,6 +427,9 @@ fn main() {
         );
         let ns = f.dfs_stack::<OWN_F32>(roots, &mut out);
         let mut got = out[..ns].to_vec();
+        // The lookahead writes the same triangles in the same order.
+        let nl = f.dfs_stack::<OWN_LOOK>(roots, &mut out2);
+        assert_eq!(&out2[..nl], &got[..], "the lookahead changed the triangles");
         got.sort_unstable();
         assert_eq!(got, reference, "stack and recursive triangles differ");
         let (r, rl, ri) = (&r, &rl, &ri);
@@ -361,6 +451,10 @@ fn main() {
                 }),
             ),
             ("stack", Box::new(|| f.dfs_stack::<OWN_F32>(roots, out2))),
+            (
+                "stack, lookahead",
+                Box::new(|| f.dfs_stack::<OWN_LOOK>(roots, &mut out_look)),
+            ),
             (
                 "stack, f64 decisions",
                 Box::new(|| f.dfs_stack::<OWN_F64>(roots, &mut out64)),
