@@ -9,8 +9,9 @@
 # (bundled DEM, golden images) and a Vulkan loader with the GPU's driver (WGPU_BACKEND picks
 # another backend). The tests find their data through the path they were built at, so `run`
 # links that path to this checkout when it differs. Prints the adapter, test results, the
-# effect table at 640x360 and 1920x1080 (median of 15 frames) and two `relief render --json`
-# frames; exits non-zero if a test fails.
+# effect table at 640x360 and 1920x1080 (median of 15 frames), three `relief render --json`
+# frames at 1080p (maxmip, cascades, mesh) and three images past lavapipe's limits (rendered or
+# refused in one line); exits non-zero if a test fails or a run ends otherwise.
 set -uo pipefail
 cd "$(dirname "$0")/../../.."
 mode=${1:-}
@@ -27,7 +28,9 @@ for l in sys.stdin:
         print(m["target"]["name"], m["executable"])')
   [ -n "$exes" ] || { echo "no test binaries built" >&2; exit 1; }
   while read -r name exe; do cp "$exe" "$dir/test-$name"; done <<<"$exes"
-  cargo build --release -p relief-cli -p relief-examples --example gpu_effects || exit 1
+  # Two builds: with `--example`, cargo builds only the example, not the CLI binary.
+  cargo build --release -p relief-cli || exit 1
+  cargo build --release -p relief-examples --example gpu_effects || exit 1
   cp target/release/relief target/release/examples/gpu_effects "$dir/"
   pwd >"$dir/built-at"
   strip "$dir"/test-* "$dir/relief" "$dir/gpu_effects" 2>/dev/null
@@ -50,11 +53,23 @@ run)
     echo "== effects $size"
     "$dir/gpu_effects" "$dem" "$size" 15 || status=1
   done
-  for m in maxmip cascades; do
+  for m in maxmip cascades mesh; do
     echo "== relief render --method $m 1920x1080"
     "$dir/relief" render --dem "$dem" --dx 160 --dy 160 --z-scale 0.1 --eye 20000,15000,3000 \
       --target 90000,80000,0 --fov 60 --size 1920x1080 --repeat 9 --method "$m" --json \
       --out "${TMPDIR:-/tmp}/relief-hw-$m.png" || status=1
+  done
+  # Past lavapipe's limits (a 16384 texture side, 128 MiB bindings): a hardware adapter may
+  # render these or refuse them in one line (exit 2); anything else is a failure.
+  for args in "--size 4096x2160 --effects normals" "--size 8192x8192" "--size 20000x64 --method mesh"; do
+    echo "== relief render $args"
+    # shellcheck disable=SC2086
+    "$dir/relief" render --dem "$dem" --dx 160 --dy 160 --z-scale 0.1 --eye 20000,15000,3000 \
+      --target 90000,80000,0 --fov 60 $args --json --out "${TMPDIR:-/tmp}/relief-hw-big.png" \
+      | cut -c1-400
+    rc=${PIPESTATUS[0]}
+    echo "exit $rc"
+    [ "$rc" = 0 ] || [ "$rc" = 2 ] || status=1
   done
   exit $status
   ;;
