@@ -525,8 +525,8 @@ fn images_too_large_for_the_adapter_are_one_line_errors_not_panics() {
 
 /// `--effects normals --normals-out` writes three f32 a pixel: unit normals facing up where the
 /// depth image hits, zeros where it misses; the picture and depth are those of the scene
-/// without the effect. Without the effect the option is refused, and the CPU backend refuses
-/// the effect.
+/// without the effect, and the CPU backend writes the same normals. Without the effect the
+/// option is refused.
 #[test]
 fn normals_out_writes_the_hits_normals_only_when_the_effect_is_named() {
     let dir = tempfile::tempdir().unwrap();
@@ -559,14 +559,38 @@ fn normals_out_writes_the_hits_normals_only_when_the_effect_is_named() {
             assert_eq!(p, [0.0; 3]);
         }
     }
+    // The CPU backend: the same normals on the pixels where both hit the same point.
+    let cf = dir.path().join("c.f32").display().to_string();
+    let Some((_, cd)) = render(
+        dir.path(),
+        "cpu",
+        &[
+            "--backend",
+            "cpu",
+            "--effects",
+            "normals",
+            "--normals-out",
+            &cf,
+        ],
+    ) else {
+        return;
+    };
+    let c = read_f32(Path::new(&cf));
+    let (mut both, mut same) = (0, 0);
+    for (((p, q), t), u) in n.chunks_exact(3).zip(c.chunks_exact(3)).zip(&d).zip(&cd) {
+        if !u.is_finite() {
+            assert_eq!(q, [0.0; 3]);
+        } else if t.is_finite() && (t - u).abs() <= 1e-3 * u {
+            both += 1;
+            same += usize::from(p[0] * q[0] + p[1] * q[1] + p[2] * q[2] > 0.9999);
+        }
+    }
+    assert!(both > hits * 9 / 10, "{both} of {hits} hits agree in depth");
+    assert!(same * 1000 >= both * 995, "{same} of {both} normals agree");
     let dem = bundled();
     let png = dir.path().join("x.png").display().to_string();
     let mut args = vec!["render", "--dem", &dem, "--out", &png];
     args.extend_from_slice(&CAM);
-    let mut no_effect = args.clone();
-    no_effect.extend_from_slice(&["--normals-out", &nf]);
-    assert_one_line_error(&relief_env(&no_effect, &[]), "--effects normals");
-    let mut cpu = args.clone();
-    cpu.extend_from_slice(&["--backend", "cpu", "--effects", "normals"]);
-    assert_one_line_error(&relief_env(&cpu, &[]), "needs --backend gpu");
+    args.extend_from_slice(&["--normals-out", &nf]);
+    assert_one_line_error(&relief_env(&args, &[]), "--effects normals");
 }

@@ -104,7 +104,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "PATH")]
     depth_out: Option<PathBuf>,
     /// World normals of the hits: little-endian f32, three per pixel (x, y, z), row-major,
-    /// zeros for a miss (needs `--effects normals`, GPU ray casting).
+    /// zeros for a miss (needs `--effects normals`; ray casting, either backend).
     #[arg(long, value_name = "PATH")]
     normals_out: Option<PathBuf>,
     /// Print one JSON object instead of text.
@@ -489,12 +489,9 @@ pub(crate) fn render_cpu(
     march: bool,
     effects: &[Effect],
 ) -> CliResult<Rendered> {
-    if let Some(e) = effects
-        .iter()
-        .find(|e| matches!(e, Effect::DepthOutput | Effect::NormalOutput))
-    {
+    if let Some(e) = effects.iter().find(|e| **e == Effect::DepthOutput) {
         return Err(CliError(format!(
-            "effect '{}' needs --backend gpu (the CPU renders lighting, shadows, detail, deformations, fog, water)",
+            "effect '{}' needs --backend gpu (the CPU renders lighting, shadows, detail, deformations, fog, water, normals)",
             e.name()
         )));
     }
@@ -574,7 +571,9 @@ pub(crate) fn render_cpu(
                     let sky = Vec3::new(0.55, 0.7, 0.9);
                     let mut c = sky;
                     let mut depth = f32::INFINITY;
+                    let mut normal = [0.0f32; 3];
                     if let Some(hit) = trace(&ray)? {
+                        normal = hit.normal.to_array();
                         let local = hit.position.z as f32 - scale.z_offset;
                         c = albedo((local - zmin) / (zmax - zmin).max(1e-6));
                         if let Some((map, n)) = &detail {
@@ -621,6 +620,8 @@ pub(crate) fn render_cpu(
                                 let wc = shading.water_color;
                                 c = c.lerp(wc, 0.5).lerp(wc * 0.6, below);
                                 depth = tw as f32;
+                                // As shaders/raycast.wgsl: the water plane faces up.
+                                normal = [0.0, 0.0, 1.0];
                             }
                         }
                     }
@@ -628,14 +629,24 @@ pub(crate) fn render_cpu(
                         let f = 1.0 - (-shading.fog_density * depth).exp();
                         c = c.lerp(shading.fog_color, f);
                     }
-                    Ok((depth, rgba(c)))
+                    Ok((depth, rgba(c), normal))
                 })
                 .collect()
         })
         .collect();
     let rows = rows.map_err(CliError)?;
     let trace_ms = t1.elapsed().as_secs_f64() * 1e3;
-    let (depth, color) = rows.into_iter().flatten().unzip();
+    let n = w as usize * h as usize;
+    let (mut depth, mut color, mut normals) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    for (d, c, nm) in rows.into_iter().flatten() {
+        depth.push(d);
+        color.push(c);
+        normals.push(nm);
+    }
     let mut setup = Vec::new();
     let mut passes = Vec::new();
     if deformed.is_some() {
@@ -660,7 +671,7 @@ pub(crate) fn render_cpu(
         setup,
         passes,
         record_ms: None,
-        normals: None,
+        normals: has(Effect::NormalOutput).then_some(normals),
     })
 }
 
@@ -712,7 +723,8 @@ fn render_cpu_silhouette(
 }
 
 /// Depth and colour of one pixel.
-type Pixel = (f32, [u8; 4]);
+/// Depth, colour and world normal (zero for a miss) of a CPU-rendered pixel.
+type Pixel = (f32, [u8; 4], [f32; 3]);
 
 fn rgba(c: Vec3) -> [u8; 4] {
     let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
