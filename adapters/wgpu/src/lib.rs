@@ -25,6 +25,30 @@
 //! miss. Heights live on the GPU as `f32` *local* heights (`h * z_scale`); the eye is converted to
 //! heightfield-local coordinates in `f64` on the CPU before upload, as the CPU tracer does.
 //!
+//! ## What fits a device
+//!
+//! Every buffer a pass creates is checked against the device's limits first, and one that does
+//! not fit is [`Error::TooLarge`] (naming the buffer, its bytes and the limit) instead of
+//! wgpu's validation error, which panics in its default handler; a texture side past
+//! `max_texture_dimension_2d` or a dispatch past `max_compute_workgroups_per_dimension`
+//! (workgroups of 8 x 8 threads, one thread a pixel or sample) is [`Error::Unsupported`]. A
+//! storage buffer must fit `max_storage_buffer_binding_size` (128 MiB on lavapipe and on many
+//! GPUs) and any buffer `max_buffer_size`. What a scene allocates, so only what it names:
+//!
+//! | buffer | bytes | when |
+//! |---|---|---|
+//! | ray outputs: depth, colour | 4 + 4 a pixel | every ray-cast frame ([`RayOutputs`]) |
+//! | per-pixel normals | 16 a pixel | [`Effect::NormalOutput`] only |
+//! | heights | 4 a sample (twice with deformations) | every terrain ([`GpuTerrain`]) |
+//! | max-mip pyramid | about 5.3 a sample (4 a cell over all levels) | every terrain |
+//! | normal map | 16 a sample of the (refined) grid | [`Effect::Lighting`] ([`NormalPass`]) |
+//! | colour and depth targets | 4 + 4 a pixel, textures | [`Effect::DepthOutput`], [`MeshPass`] |
+//! | mesh vertices, indices | 12 a vertex, 4 an index | [`MeshPass`] (grid vertices: 12 a sample) |
+//!
+//! With a 128 MiB binding that is about 33 M pixels per frame (8.4 M with normals), terrains up
+//! to about 5000 x 5000 samples (the pyramid), lit ones up to about 2896 x 2896 (the normal
+//! map).
+//!
 //! ```no_run
 //! use relief_core::{Camera, Heightfield, Scale};
 //! use relief_wgpu::{headless, Effect, Renderer, Scene};
