@@ -113,11 +113,6 @@ impl NormalPass {
             return Err(relief_core::Error::SizeOverflow.into());
         };
         util::check_dispatch(device, w, h)?;
-        util::check_storage(
-            device,
-            "relief normal map",
-            u64::from(w) * u64::from(h) * 16,
-        )?;
         let s = terrain.scale();
         let k = (1u32 << shift) as f32;
         let (dx, dy) = (s.dx / k, s.dy / k);

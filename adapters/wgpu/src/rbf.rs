@@ -80,15 +80,6 @@ impl RbfPass {
             entries.extend_from_slice(sets.of(j));
             offsets.push(entries.len() as u32);
         }
-        // Each buffer is checked against the device's binding size as it is made
-        // (`Error::TooLarge`, naming it).
-        for (what, bytes) in [
-            ("relief rbf entries", entries.len() * 4),
-            ("relief rbf index", index.len() * 4),
-            ("relief rbf cells", cell_data.len() * 16),
-        ] {
-            util::check_storage(device, what, bytes as u64)?;
-        }
         let module = device
             .create_shader_module(wgpu::include_wgsl!("../../../shaders/rbf_discretize.wgsl"));
         let cs = wgpu::ShaderStages::COMPUTE;

@@ -234,7 +234,7 @@ fn render_gpu(
         let mut frames = Vec::new();
         for _ in 0..a.repeat {
             let t = Instant::now();
-            // The indexed list's vertices and indices, or `None` for grid indices in `grid[..n]`.
+            // The indexed list's vertices and triangles, or `None` for grid indices in `grid[..n]`.
             let (list, n) = if on_grid {
                 let n = match rf.grid_triangles(&mut grid) {
                     Err(relief_core::Error::BufferTooSmall { needed, .. }) => {
@@ -249,12 +249,12 @@ fn render_gpu(
                 let mut verts = vec![[0.0f32; 3]; c.vertices];
                 let mut tris = vec![[0u32; 3]; c.triangles];
                 rf.triangles(&mut scratch, &mut verts, &mut tris)?;
-                (Some((verts, tris.as_flattened().to_vec())), 0)
+                (Some((verts, tris)), 0)
             };
             let refine_ms = t.elapsed().as_secs_f64() * 1e3;
             let t = Instant::now();
             match &list {
-                Some((v, i)) => mesh.upload(&gpu.device, &gpu.queue, v, i)?,
+                Some((v, t)) => mesh.upload(&gpu.device, &gpu.queue, v, t.as_flattened())?,
                 None => {
                     let i = grid.get(..n).unwrap_or(&[]).as_flattened();
                     mesh.upload_grid_triangles(&gpu.device, &gpu.queue, i)?
@@ -636,16 +636,17 @@ pub(crate) fn render_cpu(
         .collect();
     let rows = rows.map_err(CliError)?;
     let trace_ms = t1.elapsed().as_secs_f64() * 1e3;
+    // The normals are kept only when the scene names them.
+    let want_normals = has(Effect::NormalOutput);
     let n = w as usize * h as usize;
-    let (mut depth, mut color, mut normals) = (
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-        Vec::with_capacity(n),
-    );
+    let (mut depth, mut color) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    let mut normals = Vec::with_capacity(if want_normals { n } else { 0 });
     for (d, c, nm) in rows.into_iter().flatten() {
         depth.push(d);
         color.push(c);
-        normals.push(nm);
+        if want_normals {
+            normals.push(nm);
+        }
     }
     let mut setup = Vec::new();
     let mut passes = Vec::new();
@@ -671,7 +672,7 @@ pub(crate) fn render_cpu(
         setup,
         passes,
         record_ms: None,
-        normals: has(Effect::NormalOutput).then_some(normals),
+        normals: want_normals.then_some(normals),
     })
 }
 
