@@ -25,7 +25,10 @@ override SOBEL: bool = false;
 override DETAIL: bool = false;
 
 @group(0) @binding(0) var<storage, read> heights: array<f32>;
-@group(0) @binding(1) var<storage, read_write> normals: array<vec4<f32>>;
+// The gradient (dz/dx, dz/dy) of each sample, 8 bytes: the normal is
+// normalize(-dz/dx, -dz/dy, 1), computed where it is read (raycast.wgsl's gradient_normal, the
+// same operations as relief_wgpu::NormalPass::read).
+@group(0) @binding(1) var<storage, read_write> normals: array<vec2<f32>>;
 @group(0) @binding(2) var<uniform> p: NormalParams;
 @group(0) @binding(3) var<storage, read> detail: array<f32>;
 
@@ -90,8 +93,5 @@ fn normal_map(@builtin(global_invocation_id) id: vec3<u32>) {
         gx = (z(xr, y) - z(xl, y)) / sx;
         gy = (z(x, yr) - z(x, yl)) / sy;
     }
-    // Scale by the largest component first so the squares cannot overflow.
-    let m = max(max(abs(gx), abs(gy)), 1.0);
-    let n = normalize(vec3<f32>(-gx / m, -gy / m, 1.0 / m));
-    normals[y * p.width + x] = vec4<f32>(n, 0.0);
+    normals[y * p.width + x] = vec2<f32>(gx, gy);
 }

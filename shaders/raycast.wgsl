@@ -59,7 +59,8 @@ const INF_BITS: u32 = 0x7f800000u;
 @group(0) @binding(0) var<uniform> p: RayParams;
 @group(0) @binding(1) var<storage, read> heights: array<f32>;
 @group(0) @binding(2) var<storage, read> mip: array<f32>;
-@group(0) @binding(3) var<storage, read> normal_map: array<vec4<f32>>;
+// Gradients (dz/dx, dz/dy) per sample (normals.wgsl).
+@group(0) @binding(3) var<storage, read> normal_map: array<vec2<f32>>;
 @group(0) @binding(4) var<storage, read> detail: array<f32>;
 @group(0) @binding(5) var<storage, read_write> out_depth: array<u32>;
 @group(0) @binding(6) var<storage, read_write> out_normal: array<vec4<f32>>;
@@ -391,9 +392,18 @@ fn sample_normal_map(gx: f32, gy: f32) -> vec3<f32> {
     let y1 = min(y0 + 1u, p.image.w - 1u);
     let fx = clamp(gx - f32(x0), 0.0, 1.0);
     let fy = clamp(gy - f32(y0), 0.0, 1.0);
-    let a = mix(normal_map[y0 * w + x0].xyz, normal_map[y0 * w + x1].xyz, fx);
-    let b = mix(normal_map[y1 * w + x0].xyz, normal_map[y1 * w + x1].xyz, fx);
+    let a = mix(gradient_normal(y0 * w + x0), gradient_normal(y0 * w + x1), fx);
+    let b = mix(gradient_normal(y1 * w + x0), gradient_normal(y1 * w + x1), fx);
     return normalize(mix(a, b, fy));
+}
+
+// The unit normal of sample i from its stored gradient: normalize(-dz/dx, -dz/dy, 1), scaled by
+// the largest component first so the squares cannot overflow (relief_wgpu::NormalPass::read
+// does the same on the CPU).
+fn gradient_normal(i: u32) -> vec3<f32> {
+    let g = normal_map[i];
+    let m = max(max(abs(g.x), abs(g.y)), 1.0);
+    return normalize(vec3<f32>(-g.x / m, -g.y / m, 1.0 / m));
 }
 
 fn albedo(z: f32) -> vec3<f32> {

@@ -40,14 +40,14 @@
 //! | ray outputs: depth, colour | 4 + 4 a pixel | every ray-cast frame ([`RayOutputs`]) |
 //! | per-pixel normals | 16 a pixel | [`Effect::NormalOutput`] only |
 //! | heights | 4 a sample (twice with deformations) | every terrain ([`GpuTerrain`]) |
-//! | max-mip pyramid | about 5.3 a sample (4 a cell over all levels) | every terrain |
-//! | normal map | 16 a sample of the (refined) grid | [`Effect::Lighting`] ([`NormalPass`]) |
+//! | max-mip pyramid | about 5.3 a sample (4 a cell over all levels) | [`Method::MaxMip`] scenes ([`GpuTerrain::new`]; march and silhouette scenes use [`GpuTerrain::without_maxmip`]) |
+//! | normal map (gradients) | 8 a sample of the (refined) grid | [`Effect::Lighting`] ([`NormalPass`]) |
 //! | colour and depth targets | 4 + 4 a pixel, textures | [`Effect::DepthOutput`], [`MeshPass`] |
 //! | mesh vertices, indices | 12 a vertex, 4 an index | [`MeshPass`] (grid vertices: 12 a sample) |
 //!
 //! With a 128 MiB binding that is about 33 M pixels per frame (8.4 M with normals), terrains up
-//! to about 5000 x 5000 samples (the pyramid), lit ones up to about 2896 x 2896 (the normal
-//! map).
+//! to about 5017 x 5017 samples for max-mip scenes (the pyramid) and 5793 x 5793 for march and
+//! silhouette scenes (the heights), lit ones up to 4096 x 4096 (the normal map).
 //!
 //! ```no_run
 //! use relief_core::{Camera, Heightfield, Scale};

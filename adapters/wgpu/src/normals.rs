@@ -8,7 +8,10 @@
 //! [`NormalPass::new_composed`] the base is first refined by a power-of-two factor with bilinear
 //! interpolation, as `Composed` refines it; non-power-of-two factors are not supported, as in
 //! the core). Same border rule as the CPU: a missing neighbour is the sample itself. One
-//! invocation per sample, 8 x 8 workgroups; output `vec4<f32>` per sample (`w = 0`).
+//! invocation per sample, 8 x 8 workgroups; output the gradient `(dz/dx, dz/dy)` per sample
+//! (`vec2<f32>`, 8 bytes), from which the ray caster computes the unit normal
+//! `normalize(-dz/dx, -dz/dy, 1)` where it reads it (half the memory of a stored `vec4`
+//! normal, the same values: [`NormalPass::read`] does the same operations).
 
 use crate::util::{self, bind_buffers, compute_pipeline, groups, storage_entry, uniform_entry};
 use crate::{Error, GpuTerrain};
@@ -42,7 +45,7 @@ impl NormalPass {
     /// A pass writing the normals of `terrain` with `method`. `detail` is an optional tiled
     /// detail map `(samples, width, height)` in local height units, added to the base (the
     /// composed surface). [`Error::Unsupported`] for an empty or mis-sized detail map,
-    /// [`Error::TooLarge`] when the normals (16 bytes a sample) do not fit one storage buffer
+    /// [`Error::TooLarge`] when the gradients (8 bytes a sample) do not fit one storage buffer
     /// binding of the device.
     pub fn new(
         device: &wgpu::Device,
@@ -60,8 +63,8 @@ impl NormalPass {
     /// `((width - 1) * factor + 1) x ((height - 1) * factor + 1)` samples at the base spacing
     /// divided by `factor`. [`Error::Core`] with [`relief_core::Error::InvalidFactor`] for
     /// a factor that is not a power of two; [`Error::Unsupported`] for an empty or mis-sized
-    /// detail map; [`Error::TooLarge`] for a refined grid whose normals (16 bytes a sample) do
-    /// not fit one storage buffer binding of the device.
+    /// detail map; [`Error::TooLarge`] for a refined grid whose gradients (8 bytes a sample)
+    /// do not fit one storage buffer binding of the device.
     ///
     /// ```no_run
     /// use relief_core::{Heightfield, NormalMethod};
@@ -133,7 +136,7 @@ impl NormalPass {
             }
             None => util::storage(device, "relief detail (unused)", 4)?,
         };
-        let normals = util::storage(device, "relief normal map", w as u64 * h as u64 * 16)?;
+        let normals = util::storage(device, "relief normal map", w as u64 * h as u64 * 8)?;
         let params = util::uniform(device, "relief normal params", 32);
         let p: [u32; 8] = [w, h, dw, dh, dx.to_bits(), dy.to_bits(), shift, 0];
         queue.write_buffer(&params, 0, bytemuck::cast_slice(&p));
@@ -182,7 +185,9 @@ impl NormalPass {
         (self.width, self.height)
     }
 
-    /// The normal map buffer (`width * height` `vec4<f32>`, row-major).
+    /// The normal map buffer: `width * height` gradients `(dz/dx, dz/dy)` (`vec2<f32>`,
+    /// row-major, world height units per world unit); the normal is
+    /// `normalize(-dz/dx, -dz/dy, 1)`.
     #[must_use]
     pub fn buffer(&self) -> &wgpu::Buffer {
         &self.normals
@@ -199,10 +204,43 @@ impl NormalPass {
         pass.dispatch_workgroups(groups(self.width, 8), groups(self.height, 8), 1);
     }
 
-    /// Reads the normals back (waits for the GPU; for tests and tools).
+    /// Reads the normals back (waits for the GPU; for tests and tools): each computed from the
+    /// stored gradient with the ray caster's operations ([`gradient_normal`]).
     pub fn read(&self, device: &wgpu::Device, queue: &wgpu::Queue) -> Result<Vec<[f32; 3]>, Error> {
-        let n = self.width as u64 * self.height as u64 * 16;
-        let v = util::f32s(&util::read_buffer(device, queue, &self.normals, n)?);
-        Ok(v.chunks_exact(4).map(|c| [c[0], c[1], c[2]]).collect())
+        Ok(self
+            .read_gradients(device, queue)?
+            .into_iter()
+            .map(gradient_normal)
+            .collect())
     }
+
+    /// Reads the stored gradients `(dz/dx, dz/dy)` back (waits for the GPU; for tests and
+    /// tools).
+    pub fn read_gradients(
+        &self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Result<Vec<[f32; 2]>, Error> {
+        let n = self.width as u64 * self.height as u64 * 8;
+        let v = util::f32s(&util::read_buffer(device, queue, &self.normals, n)?);
+        Ok(v.chunks_exact(2).map(|c| [c[0], c[1]]).collect())
+    }
+}
+
+/// The unit normal `normalize(-gx, -gy, 1)` of a surface with gradient `[gx, gy]`, scaled by
+/// the largest component first so that the squares cannot overflow: what the ray caster
+/// (`shaders/raycast.wgsl`, `gradient_normal`) computes from a [`NormalPass`] sample.
+///
+/// ```
+/// let n = relief_wgpu::normals::gradient_normal([1.0, 0.0]);
+/// assert!((n[0] + std::f32::consts::FRAC_1_SQRT_2).abs() < 1e-7 && n[1] == 0.0);
+/// let steep = relief_wgpu::normals::gradient_normal([1e30, 0.0]);
+/// assert_eq!(steep, [-1.0, 0.0, 1e-30]);
+/// ```
+#[must_use]
+pub fn gradient_normal([gx, gy]: [f32; 2]) -> [f32; 3] {
+    let m = gx.abs().max(gy.abs()).max(1.0);
+    let v = [-gx / m, -gy / m, 1.0 / m];
+    let len = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    [v[0] / len, v[1] / len, v[2] / len]
 }

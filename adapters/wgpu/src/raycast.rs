@@ -361,9 +361,11 @@ const PARAM_WORDS: usize = 12 * 4 + 9 * 4;
 
 impl RayCastPass {
     /// A pass over `terrain` writing a `width x height` image. `normals` (a normal map of the
-    /// terrain, `vec4<f32>` per sample) is needed for lighting, `detail` (`f32` local heights,
-    /// width, height) for the detail effect. [`Error::Unsupported`] when an effect lacks its
-    /// input, the image is empty, or the march options are out of range.
+    /// terrain: a [`crate::NormalPass`]'s gradients, `vec2<f32>` per sample) is needed for
+    /// lighting, `detail` (`f32` local heights, width, height) for the detail effect. [`Error::Unsupported`] when an effect lacks its
+    /// input, the image is empty, the march options are out of range, or [`Method::MaxMip`]
+    /// meets a terrain without its pyramid ([`GpuTerrain::without_maxmip`], which suits
+    /// [`Method::March`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         device: &wgpu::Device,
@@ -424,6 +426,11 @@ impl RayCastPass {
         if terrain.mip_offsets().len() > 36 {
             return Err(Error::Unsupported("too many max-mip levels"));
         }
+        if method == Method::MaxMip && terrain.maxmip().is_none() {
+            return Err(Error::Unsupported(
+                "max-mip ray casting needs a terrain with its pyramid (GpuTerrain::new)",
+            ));
+        }
         let dummy = util::storage(device, "relief unused", 16)?;
         let out = RayOutputs::new(device, width, height, effects.normals)?;
         let params = util::uniform(device, "relief ray params", PARAM_WORDS as u64 * 4);
@@ -459,7 +466,8 @@ impl RayCastPass {
             entries: &bind_buffers(&[
                 &params,
                 terrain.heights(),
-                terrain.maxmip(),
+                // March reads only the heights.
+                terrain.maxmip().unwrap_or(&dummy),
                 normals.unwrap_or(&dummy),
                 detail.map_or(&dummy, |d| d.0),
                 &out.depth,

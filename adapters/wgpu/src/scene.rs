@@ -28,6 +28,10 @@
 //! | [`Method::Silhouette`] (seed 000) | none | `silhouette_map`, `silhouette_tree`, `silhouette_trace` | depth output |
 //! | [`Method::Cascades`] (seed 002 sec. 5) | none (the RBF approximation is built on the CPU by [`Renderer::new`]) | `rbf_discretize`, `cascade_maxmip`, `cascade_raycast`, `cascade_blend` | depth output |
 //!
+//! Buffers follow the same rule: the terrain's max-mip pyramid (about 5.3 bytes a sample) is
+//! allocated for [`Method::MaxMip`] only ([`GpuTerrain::without_maxmip`] otherwise), the normal
+//! map for lit scenes only, per-pixel normals for [`Effect::NormalOutput`] only.
+//!
 //! Silhouette partitioning reads a fixed number of texels per pixel,
 //! [`crate::silhouette::reads_per_pixel`] (8 for a 1025 x 1025 grid).
 //!
@@ -630,7 +634,13 @@ impl Renderer {
     ) -> Result<Renderer, Error> {
         scene.check()?;
         let dynamic = scene.has(Effect::Deformations);
-        let mut gt = GpuTerrain::new(device, queue, terrain, dynamic)?;
+        // The pyramid only for the method that traces with it (march and silhouette read the
+        // heights; the cascades build their own).
+        let mut gt = if scene.needs_mip() {
+            GpuTerrain::new(device, queue, terrain, dynamic)?
+        } else {
+            GpuTerrain::without_maxmip(device, queue, terrain, dynamic)?
+        };
         if dynamic {
             gt.set_craters(queue, &scene.craters)?;
         }

@@ -56,7 +56,7 @@ impl Crater {
 }
 
 /// A heightfield on the GPU: local heights (`h * z_scale`, `f32`), optionally a working copy
-/// deformed every frame, and its maximum mipmap.
+/// deformed every frame, and its maximum mipmap (unless made by [`GpuTerrain::without_maxmip`]).
 ///
 /// ```no_run
 /// use relief_core::{ray::MaxMip, Heightfield};
@@ -81,13 +81,20 @@ pub struct GpuTerrain {
     crater_depth: f32,
     base: wgpu::Buffer,
     current: Option<wgpu::Buffer>,
-    mip: wgpu::Buffer,
+    /// The pyramid's layout, kept without the pyramid too (ray casting's step bound).
     mip_len: usize,
     offsets: Vec<u32>,
     dims: Vec<(u32, u32)>,
-    mip_pipeline: wgpu::ComputePipeline,
-    mip_groups: Vec<wgpu::BindGroup>,
+    mip: Option<Pyramid>,
     deform: Option<Deform>,
+}
+
+/// The max-mip buffer and its build.
+#[derive(Debug)]
+struct Pyramid {
+    buffer: wgpu::Buffer,
+    pipeline: wgpu::ComputePipeline,
+    groups: Vec<wgpu::BindGroup>,
 }
 
 #[derive(Debug)]
@@ -99,17 +106,51 @@ struct Deform {
 }
 
 impl GpuTerrain {
-    /// Uploads `terrain`'s local heights. With `dynamic`, keeps a second working copy that
-    /// [`GpuTerrain::encode_deform`] rewrites from the base every frame. Nothing is dispatched:
-    /// record [`GpuTerrain::encode_maxmip`] before tracing with the pyramid.
-    /// [`Error::Core`] for a grid smaller than 2 x 2, [`Error::TooLarge`] when its heights (4
-    /// bytes a sample) or max-mip pyramid do not fit one storage buffer binding of the device
-    /// (a 128 MiB binding holds 5793 x 5793 samples).
+    /// Uploads `terrain`'s local heights and allocates its max-mip pyramid. With `dynamic`,
+    /// keeps a second working copy that [`GpuTerrain::encode_deform`] rewrites from the base
+    /// every frame. Nothing is dispatched: record [`GpuTerrain::encode_maxmip`] before tracing
+    /// with the pyramid. [`Error::Core`] for a grid smaller than 2 x 2, [`Error::TooLarge`]
+    /// when its heights (4 bytes a sample) or max-mip pyramid (about 5.3 bytes a sample) do not
+    /// fit one storage buffer binding of the device (a 128 MiB binding holds 5793 x 5793
+    /// heights, a pyramid of about 5017 x 5017 samples).
     pub fn new<T: Terrain>(
         device: &wgpu::Device,
-        _queue: &wgpu::Queue,
+        queue: &wgpu::Queue,
         terrain: &T,
         dynamic: bool,
+    ) -> Result<GpuTerrain, Error> {
+        Self::upload(device, queue, terrain, dynamic, true)
+    }
+
+    /// [`GpuTerrain::new`] without the max-mip pyramid, for passes that read only the heights
+    /// (the march and silhouette methods): [`GpuTerrain::maxmip`] is `None` and
+    /// [`GpuTerrain::encode_maxmip`] records nothing. A 128 MiB binding then holds terrains up
+    /// to 5793 x 5793 samples.
+    ///
+    /// ```no_run
+    /// use relief_core::Heightfield;
+    /// let gpu = relief_wgpu::headless()?;
+    /// let hf = Heightfield::new(&[0.0f32, 1.0, 2.0, 3.0], 2, 2)?;
+    /// let t = relief_wgpu::GpuTerrain::without_maxmip(&gpu.device, &gpu.queue, &hf, false)?;
+    /// assert!(t.maxmip().is_none());
+    /// assert!(t.read_maxmip(&gpu.device, &gpu.queue).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn without_maxmip<T: Terrain>(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        terrain: &T,
+        dynamic: bool,
+    ) -> Result<GpuTerrain, Error> {
+        Self::upload(device, queue, terrain, dynamic, false)
+    }
+
+    fn upload<T: Terrain>(
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        terrain: &T,
+        dynamic: bool,
+        pyramid: bool,
     ) -> Result<GpuTerrain, Error> {
         let (w, h) = (terrain.width(), terrain.height());
         if w < 2 || h < 2 {
@@ -119,7 +160,7 @@ impl GpuTerrain {
             }
             .into());
         }
-        // Checked before the heights are gathered: 4 bytes a sample (a normal map, 16 a sample,
+        // Checked before the heights are gathered: 4 bytes a sample (a normal map, 8 a sample,
         // is checked by the `NormalPass` a lit scene builds).
         util::check_storage(device, "relief heights", w as u64 * h as u64 * 4)?;
         let mut local = Vec::with_capacity(w as usize * h as usize);
@@ -142,9 +183,17 @@ impl GpuTerrain {
                 )
             })
             .transpose()?;
-        let t = Self::build(device, base, current, w, h, terrain.scale(), lo, hi)?;
+        let t = Self::build(
+            device,
+            base,
+            current,
+            (w, h),
+            terrain.scale(),
+            (lo, hi),
+            pyramid,
+        )?;
         if let Some(d) = &t.deform {
-            _queue.write_buffer(&d.params, 0, bytemuck::cast_slice(&[w, h, 0u32, 0u32]));
+            queue.write_buffer(&d.params, 0, bytemuck::cast_slice(&[w, h, 0u32, 0u32]));
         }
         Ok(t)
     }
@@ -169,21 +218,17 @@ impl GpuTerrain {
                 "height buffer smaller than width * height f32",
             ));
         }
-        Self::build(
-            device, heights, None, width, height, scale, range.0, range.1,
-        )
+        Self::build(device, heights, None, (width, height), scale, range, true)
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn build(
         device: &wgpu::Device,
         base: wgpu::Buffer,
         current: Option<wgpu::Buffer>,
-        w: u32,
-        h: u32,
+        (w, h): (u32, u32),
         scale: Scale,
-        lo: f32,
-        hi: f32,
+        (lo, hi): (f32, f32),
+        pyramid: bool,
     ) -> Result<GpuTerrain, Error> {
         // The max-mip build and deformations dispatch over the samples (the pyramid's levels
         // are smaller).
@@ -207,49 +252,13 @@ impl GpuTerrain {
             }
         }
         let mip_len = total as usize;
-        let mip = util::storage(device, "relief maxmip", mip_len as u64 * 4)?;
-        let module =
-            device.create_shader_module(wgpu::include_wgsl!("../../../shaders/maxmip.wgsl"));
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("relief maxmip"),
-            entries: &[
-                storage_entry(0, true, cs),
-                storage_entry(1, false, cs),
-                uniform_entry(2, cs),
-            ],
-        });
-        let mip_pipeline = compute_pipeline(
-            device,
-            "relief maxmip",
-            &layout,
-            &module,
-            "build_level",
-            &[],
-        );
         let src = current.as_ref().unwrap_or(&base);
-        let mut mip_groups = Vec::new();
-        for (level, &(lw, lh)) in dims.iter().enumerate() {
-            let (so, (sw, sh)) = if level == 0 {
-                (0, (w, h))
-            } else {
-                (offsets[level - 1], dims[level - 1])
-            };
-            let params: [u32; 8] = [w, level as u32, so, offsets[level], sw, sh, lw, lh];
-            let ub = wgpu::util::DeviceExt::create_buffer_init(
-                device,
-                &wgpu::util::BufferInitDescriptor {
-                    label: Some("relief maxmip level"),
-                    contents: bytemuck::cast_slice(&params),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                },
-            );
-            mip_groups.push(device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("relief maxmip level"),
-                layout: &layout,
-                entries: &bind_buffers(&[src, &mip, &ub]),
-            }));
-        }
+        let mip = if pyramid {
+            Some(Pyramid::new(device, src, w, h, mip_len, &offsets, &dims)?)
+        } else {
+            None
+        };
+        let cs = wgpu::ShaderStages::COMPUTE;
         let deform = current.as_ref().map(|cur| -> Result<Deform, Error> {
             let module =
                 device.create_shader_module(wgpu::include_wgsl!("../../../shaders/deform.wgsl"));
@@ -288,12 +297,10 @@ impl GpuTerrain {
             crater_depth: 0.0,
             base,
             current,
-            mip,
             mip_len,
             offsets,
             dims,
-            mip_pipeline,
-            mip_groups,
+            mip,
             deform,
         })
     }
@@ -329,13 +336,15 @@ impl GpuTerrain {
         self.current.as_ref().unwrap_or(&self.base)
     }
 
-    /// The maximum-mipmap buffer ([`GpuTerrain::mip_len`] `f32`).
+    /// The maximum-mipmap buffer ([`GpuTerrain::mip_len`] `f32`); `None` for a terrain made by
+    /// [`GpuTerrain::without_maxmip`].
     #[must_use]
-    pub fn maxmip(&self) -> &wgpu::Buffer {
-        &self.mip
+    pub fn maxmip(&self) -> Option<&wgpu::Buffer> {
+        self.mip.as_ref().map(|m| &m.buffer)
     }
 
-    /// Elements of the pyramid (the sum of its row-major levels).
+    /// Elements of the pyramid (the sum of its row-major levels; the layout's, also without
+    /// the pyramid).
     #[must_use]
     pub fn mip_len(&self) -> usize {
         self.mip_len
@@ -403,26 +412,31 @@ impl GpuTerrain {
     }
 
     /// Records the maximum-mipmap build: one dispatch per level in one compute pass (each
-    /// dispatch sees the previous one's writes).
+    /// dispatch sees the previous one's writes). Nothing without a pyramid.
     pub fn encode_maxmip(&self, encoder: &mut wgpu::CommandEncoder) {
+        let Some(mip) = &self.mip else { return };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("relief maxmip"),
             timestamp_writes: None,
         });
-        pass.set_pipeline(&self.mip_pipeline);
-        for (g, &(lw, lh)) in self.mip_groups.iter().zip(&self.dims) {
+        pass.set_pipeline(&mip.pipeline);
+        for (g, &(lw, lh)) in mip.groups.iter().zip(&self.dims) {
             pass.set_bind_group(0, g, &[]);
             pass.dispatch_workgroups(groups(lw, 8), groups(lh, 8), 1);
         }
     }
 
-    /// Reads the pyramid back (waits for the GPU; for tests and tools).
+    /// Reads the pyramid back (waits for the GPU; for tests and tools). [`Error::Unsupported`]
+    /// without a pyramid.
     pub fn read_maxmip(
         &self,
         device: &wgpu::Device,
         queue: &wgpu::Queue,
     ) -> Result<Vec<f32>, Error> {
-        let b = util::read_buffer(device, queue, &self.mip, self.mip_len as u64 * 4)?;
+        let mip = self
+            .maxmip()
+            .ok_or(Error::Unsupported("this terrain has no max-mip pyramid"))?;
+        let b = util::read_buffer(device, queue, mip, self.mip_len as u64 * 4)?;
         Ok(util::f32s(&b))
     }
 
@@ -439,5 +453,66 @@ impl GpuTerrain {
             self.heights(),
             n,
         )?))
+    }
+}
+
+impl Pyramid {
+    /// The pyramid buffer of a `w x h` sample grid read from `src`, and one bind group a level.
+    fn new(
+        device: &wgpu::Device,
+        src: &wgpu::Buffer,
+        w: u32,
+        h: u32,
+        len: usize,
+        offsets: &[u32],
+        dims: &[(u32, u32)],
+    ) -> Result<Pyramid, Error> {
+        let mip = util::storage(device, "relief maxmip", len as u64 * 4)?;
+        let module =
+            device.create_shader_module(wgpu::include_wgsl!("../../../shaders/maxmip.wgsl"));
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("relief maxmip"),
+            entries: &[
+                storage_entry(0, true, cs),
+                storage_entry(1, false, cs),
+                uniform_entry(2, cs),
+            ],
+        });
+        let mip_pipeline = compute_pipeline(
+            device,
+            "relief maxmip",
+            &layout,
+            &module,
+            "build_level",
+            &[],
+        );
+        let mut mip_groups = Vec::new();
+        for (level, &(lw, lh)) in dims.iter().enumerate() {
+            let (so, (sw, sh)) = if level == 0 {
+                (0, (w, h))
+            } else {
+                (offsets[level - 1], dims[level - 1])
+            };
+            let params: [u32; 8] = [w, level as u32, so, offsets[level], sw, sh, lw, lh];
+            let ub = wgpu::util::DeviceExt::create_buffer_init(
+                device,
+                &wgpu::util::BufferInitDescriptor {
+                    label: Some("relief maxmip level"),
+                    contents: bytemuck::cast_slice(&params),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                },
+            );
+            mip_groups.push(device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("relief maxmip level"),
+                layout: &layout,
+                entries: &bind_buffers(&[src, &mip, &ub]),
+            }));
+        }
+        Ok(Pyramid {
+            buffer: mip,
+            pipeline: mip_pipeline,
+            groups: mip_groups,
+        })
     }
 }

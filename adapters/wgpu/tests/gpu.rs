@@ -378,7 +378,19 @@ fn march_ray_casting_matches_cpu_march() {
     let Some(g) = gpu() else { return };
     let dem = puget();
     let hf = dem.heightfield().unwrap();
-    let t = GpuTerrain::new(&g.device, &g.queue, &hf, false).unwrap();
+    // The march reads only the heights: no pyramid (a placeholder in its binding).
+    let t = GpuTerrain::without_maxmip(&g.device, &g.queue, &hf, false).unwrap();
+    assert!(RayCastPass::new(
+        &g.device,
+        &t,
+        None,
+        None,
+        Method::MaxMip,
+        RayEffects::default(),
+        8,
+        8
+    )
+    .is_err());
     let tracer = RayTracer::new(&hf, Surface::Triangles);
     let opts = MarchOptions::default();
     for (k, cam) in cameras(&hf).iter().enumerate() {
@@ -673,6 +685,18 @@ fn scenes_dispatch_exactly_the_passes_their_effects_need() {
             vec![Deform, MaxMipBuild, NormalMap, RayCast],
         ),
         (
+            Scene::new()
+                .with_method(Method::march())
+                .with_effects(&[Effect::Deformations, Effect::Lighting])
+                .with_craters(&[Crater {
+                    center: [30.0, 30.0],
+                    radius: 10.0,
+                    depth: 20.0,
+                }]),
+            vec![Deform, NormalMap, RayCast],
+            vec![Deform, NormalMap, RayCast],
+        ),
+        (
             Scene::new().with_method(Method::Silhouette),
             vec![SilhouetteMap, SilhouetteTree, SilhouetteTrace],
             vec![SilhouetteMap, SilhouetteTree, SilhouetteTrace],
@@ -719,7 +743,14 @@ fn scenes_dispatch_exactly_the_passes_their_effects_need() {
     }
     for (scene, first, next) in cases {
         let name = format!("{:?} {:?}", scene.method(), scene.effects());
+        let traces_the_pyramid = scene.method() == Method::MaxMip;
         let mut r = Renderer::new(&g.device, &g.queue, &hf, scene).unwrap();
+        // Nor allocated: the terrain's max-mip pyramid only where the frame traces it.
+        assert_eq!(
+            r.terrain().maxmip().is_some(),
+            traces_the_pyramid,
+            "{name}: pyramid"
+        );
         let f1 = r.render(&g.device, &g.queue, &cam).unwrap();
         assert_eq!(r.last_passes(), first.as_slice(), "{name} first frame");
         r.render(&g.device, &g.queue, &cam).unwrap();
@@ -1896,11 +1927,37 @@ fn render_targets_and_ray_outputs_past_the_device_limits_are_errors() {
     let scene = Scene::new().with_effect(Effect::DepthOutput);
     let mut r = Renderer::new(d, &small.queue, &hf, scene).unwrap();
     assert!(r.render(d, &small.queue, &tall).is_ok());
-    // A terrain takes 4 bytes a sample, its normal map (lit scenes only) 16: 100 x 100 samples
-    // fit a 64 KiB binding unlit, not lit; 129 x 129 (66,564 bytes of heights) not at all.
+    // A terrain takes 4 bytes a sample, its normal map (lit scenes only) 8: 90 x 90 samples
+    // (64,800 bytes of gradients) fit a 64 KiB binding lit, 100 x 100 only unlit; 129 x 129
+    // (66,564 bytes of heights) not at all.
+    let s90 = synthetic(90, 90);
+    let hf90 = Heightfield::new(&s90, 90, 90).unwrap();
+    let q = &small.queue;
+    // A frame of `scene` on the small device and on the test adapter's full one, from above the
+    // terrain's corner: the same pixels.
+    let on_both = |hf: &Heightfield<'_, f32>, scene: Scene| {
+        let n = hf.width() as f32;
+        let cam = Camera::new(
+            Vec3::new(-20.0, -20.0, n + 10.0),
+            Vec3::new(n / 2.0, n / 2.0, 0.0),
+            60.0,
+            64,
+            48,
+        )
+        .unwrap();
+        let frame = |gpu: &Gpu| {
+            Renderer::new(&gpu.device, &gpu.queue, hf, scene.clone())
+                .unwrap()
+                .render(&gpu.device, &gpu.queue, &cam)
+                .unwrap()
+        };
+        let (s, f) = (frame(&small), frame(g));
+        assert!(s.depth.iter().any(|z| z.is_finite()));
+        assert_eq!((s.depth, s.color), (f.depth, f.color));
+    };
+    on_both(&hf90, Scene::new().with_effect(Effect::Lighting));
     let s100 = synthetic(100, 100);
     let hf100 = Heightfield::new(&s100, 100, 100).unwrap();
-    let q = &small.queue;
     assert!(Renderer::new(d, q, &hf100, Scene::new()).is_ok());
     let lit = Renderer::new(d, q, &hf100, Scene::new().with_effect(Effect::Lighting));
     assert!(matches!(
@@ -1910,6 +1967,24 @@ fn render_targets_and_ray_outputs_past_the_device_limits_are_errors() {
             ..
         })
     ));
+    // 128 x 128 samples: 65,536 bytes of heights fit, their pyramid (21,590 nodes) does not.
+    // Only the max-mip method allocates it, so a march scene renders this terrain.
+    let s128 = synthetic(128, 128);
+    let hf128 = Heightfield::new(&s128, 128, 128).unwrap();
+    match GpuTerrain::new(d, q, &hf128, false) {
+        Err(relief_wgpu::Error::TooLarge { what, bytes, .. }) => {
+            assert_eq!((what, bytes), ("relief maxmip", 86_360));
+        }
+        other => panic!("expected TooLarge, got {other:?}"),
+    }
+    assert!(matches!(
+        Renderer::new(d, q, &hf128, Scene::new()),
+        Err(relief_wgpu::Error::TooLarge {
+            what: "relief maxmip",
+            ..
+        })
+    ));
+    on_both(&hf128, Scene::new().with_method(Method::march()));
     let s129 = synthetic(129, 129);
     let hf129 = Heightfield::new(&s129, 129, 129).unwrap();
     let big = GpuTerrain::new(d, q, &hf129, false);
