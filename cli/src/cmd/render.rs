@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use relief_core::glam::Vec3;
 use relief_core::ray::{MarchOptions, MaxMip, Ray, RayTracer};
 use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner, View};
-use relief_core::{Camera, Heightfield, Surface, Terrain};
+use relief_core::{normal_map, Camera, Composed, Heightfield, NormalMethod, Surface, Terrain};
 use relief_wgpu::mesh::{depth_to_distance, MeshStyle};
 use relief_wgpu::terrain::Crater;
 use relief_wgpu::{DepthTarget, Effect, MeshPass, Renderer, Scene};
@@ -477,9 +477,12 @@ fn albedo(s: f32) -> Vec3 {
 }
 
 /// The CPU backend: max-mip (or march) tracing with the effects that need only core functions
-/// and the GPU shader's CPU references: lighting (from the hit triangle's normal; the GPU
-/// samples a Sobel normal map), shadows, fog, the detail map's colour, the water plane and
+/// and the GPU shader's CPU references: lighting (the core's Sobel normal map of the traced
+/// heights, with the detail map composed when named, sampled bilinearly at the hit as the
+/// shader samples the GPU's), shadows, fog, the detail map's colour, the water plane and
 /// deformations (the craters applied to the heights with [`Crater::lowering`], then traced).
+/// Like the GPU it builds only what the scene names: the pyramid for max-mip tracing, the
+/// normal map for lighting.
 /// Not on the CPU: a water *surface* file, depth output (a GPU depth buffer for meshes), the
 /// cascade ray cast and the mesh method (it would need a CPU rasteriser); silhouette
 /// partitioning has its own CPU path ([`render_cpu_silhouette`]). Also the report's fallback for effect costs where no GPU adapter exists.
@@ -519,10 +522,15 @@ pub(crate) fn render_cpu(
     };
     let deform_ms = t0.elapsed().as_secs_f64() * 1e3;
     let t0 = Instant::now();
-    let len =
-        MaxMip::len(dhf.width(), dhf.height()).ok_or_else(|| CliError("grid too small".into()))?;
-    let mut buf = vec![0.0f32; len];
-    let mip = MaxMip::build(&dhf, &mut buf)?;
+    let mut buf = Vec::new();
+    let mip = if march {
+        None
+    } else {
+        let len = MaxMip::len(dhf.width(), dhf.height())
+            .ok_or_else(|| CliError("grid too small".into()))?;
+        buf.resize(len, 0.0f32);
+        Some(MaxMip::build(&dhf, &mut buf)?)
+    };
     let build_ms = t0.elapsed().as_secs_f64() * 1e3;
     let tracer = RayTracer::new(&dhf, Surface::Triangles);
     // The GPU's colour range: the uploaded heights' range, lowered by the craters' depths.
@@ -535,6 +543,22 @@ pub(crate) fn render_cpu(
             64u32,
         )
     });
+    // Lighting: the normal map the GPU's `normal_map` pass makes (Sobel, the detail composed).
+    let t0 = Instant::now();
+    let lit_normals = if has(Effect::Lighting) {
+        let mut n = vec![Vec3::ZERO; dhf.width() as usize * dhf.height() as usize];
+        match &detail {
+            Some((map, k)) => {
+                let d = Heightfield::new(map, *k, *k)?;
+                normal_map(&Composed::new(dhf, d, 1)?, NormalMethod::Sobel, &mut n)?;
+            }
+            None => normal_map(&dhf, NormalMethod::Sobel, &mut n)?,
+        }
+        Some(n)
+    } else {
+        None
+    };
+    let normals_ms = t0.elapsed().as_secs_f64() * 1e3;
     let water = has(Effect::Water).then(|| water_level(hf));
     let extent = (
         f64::from(dhf.width() - 1) * f64::from(scale.dx),
@@ -548,18 +572,16 @@ pub(crate) fn render_cpu(
                 .map_err(|e| e.to_string())?
                 .trace
                 .hit)
-        } else {
+        } else if let Some(mip) = &mip {
             Ok(tracer
-                .trace_maxmip(ray, &mip)
+                .trace_maxmip(ray, mip)
                 .map_err(|e| e.to_string())?
                 .hit)
+        } else {
+            Err("no max-mip pyramid".to_string())
         }
     };
-    let (lit_on, shadows, fog) = (
-        has(Effect::Lighting),
-        has(Effect::Shadows),
-        has(Effect::Fog),
-    );
+    let (shadows, fog) = (has(Effect::Shadows), has(Effect::Fog));
     let t1 = Instant::now();
     let rows: Result<Vec<Vec<Pixel>>, String> = (0..h)
         .into_par_iter()
@@ -594,8 +616,15 @@ pub(crate) fn render_cpu(
                                 lit = 0.0;
                             }
                         }
-                        if lit_on {
-                            let diffuse = hit.normal.dot(sun).max(0.0) * lit;
+                        if let Some(n) = &lit_normals {
+                            let sn = sample_normals(
+                                n,
+                                dhf.width(),
+                                dhf.height(),
+                                (hit.position.x / f64::from(scale.dx)) as f32,
+                                (hit.position.y / f64::from(scale.dy)) as f32,
+                            );
+                            let diffuse = sn.dot(sun).max(0.0) * lit;
                             c *= shading.ambient + (1.0 - shading.ambient) * diffuse;
                         } else if shadows {
                             c *= 0.55 + 0.45 * lit;
@@ -650,14 +679,17 @@ pub(crate) fn render_cpu(
     }
     let mut setup = Vec::new();
     let mut passes = Vec::new();
-    if deformed.is_some() {
-        // Deformed every frame, as on the GPU.
+    // Deformed every frame, as on the GPU: then the pyramid and the normal map are per frame.
+    let per_frame = deformed.is_some();
+    if per_frame {
         passes.push(("deform".to_string(), deform_ms));
-        if !march {
-            passes.push(("maxmip_build".to_string(), build_ms));
-        }
-    } else if !march {
-        setup.push(("maxmip_build".to_string(), build_ms));
+    }
+    let built = if per_frame { &mut passes } else { &mut setup };
+    if !march {
+        built.push(("maxmip_build".to_string(), build_ms));
+    }
+    if lit_normals.is_some() {
+        built.push(("normal_map".to_string(), normals_ms));
     }
     passes.push(("trace".to_string(), trace_ms));
     Ok(Rendered {
@@ -724,6 +756,20 @@ fn render_cpu_silhouette(
 }
 
 /// Depth and colour of one pixel.
+/// The normal map `n` (`w x h`) at grid position `(gx, gy)`, interpolated bilinearly and
+/// normalised: `sample_normal_map` of `shaders/raycast.wgsl`.
+fn sample_normals(n: &[Vec3], w: u32, h: u32, gx: f32, gy: f32) -> Vec3 {
+    let x0 = (gx.floor().max(0.0) as u32).min(w - 1);
+    let y0 = (gy.floor().max(0.0) as u32).min(h - 1);
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    let fx = (gx - x0 as f32).clamp(0.0, 1.0);
+    let fy = (gy - y0 as f32).clamp(0.0, 1.0);
+    let at = |x: u32, y: u32| n.get((y * w + x) as usize).copied().unwrap_or(Vec3::Z);
+    let a = at(x0, y0).lerp(at(x1, y0), fx);
+    let b = at(x0, y1).lerp(at(x1, y1), fx);
+    a.lerp(b, fy).normalize_or(Vec3::Z)
+}
+
 /// Depth, colour and world normal (zero for a miss) of a CPU-rendered pixel.
 type Pixel = (f32, [u8; 4], [f32; 3]);
 
