@@ -229,21 +229,20 @@ fn render_gpu(
                 t0.elapsed().as_secs_f64() * 1e3,
             ));
         }
-        // Grows to the largest frame (a retry when a frame outgrows it), reused across frames.
-        let mut grid: Vec<[u32; 3]> = Vec::new();
+        // Room for the most triangles a frame can have, so that no frame traverses twice (a
+        // short buffer costs a whole traversal before its error); zeroed lazily by the
+        // allocator, so only the pages a frame writes are ever touched. Reused across frames.
+        let mut grid: Vec<[u32; 3]> = if on_grid {
+            vec![[0; 3]; relief_core::refine::triangle_bound(hw, hh)]
+        } else {
+            Vec::new()
+        };
         let mut frames = Vec::new();
         for _ in 0..a.repeat {
             let t = Instant::now();
             // The indexed list's vertices and triangles, or `None` for grid indices in `grid[..n]`.
             let (list, n) = if on_grid {
-                let n = match rf.grid_triangles(&mut grid) {
-                    Err(relief_core::Error::BufferTooSmall { needed, .. }) => {
-                        grid.resize(needed, [0; 3]);
-                        rf.grid_triangles(&mut grid)?
-                    }
-                    r => r?,
-                };
-                (None, n)
+                (None, rf.grid_triangles(&mut grid)?)
             } else {
                 let c = rf.count(&mut scratch)?;
                 let mut verts = vec![[0.0f32; 3]; c.vertices];
