@@ -1,5 +1,5 @@
 //! Shared by the refinement examples (`refine_scale`, `refine_mapped`, `refine_pages`,
-//! `refine_probe`) and the yardsticks (`vd_lean`, `mip_lean`): the bundled DEM, the benchmark
+//! `refine_probe`) and the yardsticks (`vd_lean`, `mip_lean`, `mip_quad`): the bundled DEM, the benchmark
 //! camera, the upsampled test grids and the warm / cold frame timing.
 // Each example uses part of this module.
 #![allow(dead_code)]
@@ -439,4 +439,243 @@ pub fn camera(eye_x: f32) -> relief_core::Camera {
         720,
     )
     .unwrap()
+}
+
+/// The camera and grazing views of `bench-peers/embree_rays.sh` on Puget, 384 x 256 rays each:
+/// `(name, rays)`, each ray as the library's [`relief_core::ray::Ray`] and as `f32` origin and
+/// direction in grid-local units (x and y in cells, z less the offset), as the ray yardsticks
+/// (`mip_lean`, `mip_quad`) trace them.
+pub fn embree_views(dem: &relief_io::Dem) -> Vec<(&'static str, Vec<MipRay>)> {
+    use relief_core::glam::Vec3;
+    let views = [
+        (
+            "camera",
+            Vec3::new(19660.8, 14745.6, 12571.8),
+            Vec3::new(90112.0, 98304.0, 0.0),
+            60.0,
+        ),
+        (
+            "grazing",
+            Vec3::new(1638.4, 3276.8, 4412.568),
+            Vec3::new(163840.0, 152371.2, 4363.4165),
+            30.0,
+        ),
+    ];
+    let s = dem.scale;
+    views
+        .into_iter()
+        .map(|(name, eye, target, fov)| {
+            let cam = relief_core::Camera::new(eye, target, fov, 384, 256).unwrap();
+            let rays = (0..256)
+                .flat_map(|j| (0..384).map(move |i| (i, j)))
+                .map(|(i, j)| {
+                    let (o, d) = cam.ray(i, j);
+                    MipRay {
+                        ray: relief_core::ray::Ray::new(o, d).unwrap(),
+                        o: [o.x / s.dx, o.y / s.dy, o.z - s.z_offset],
+                        d: [d.x / s.dx, d.y / s.dy, d.z],
+                    }
+                })
+                .collect();
+            (name, rays)
+        })
+        .collect()
+}
+
+/// A ray of [`embree_views`].
+pub struct MipRay {
+    /// The library's ray (world units).
+    pub ray: relief_core::ray::Ray,
+    /// Origin in grid-local units.
+    pub o: [f32; 3],
+    /// Direction in grid-local units (the same `t` as the world ray).
+    pub d: [f32; 3],
+}
+
+/// `(agree, both miss, differ)`: hits within `1e-4` relative distance of each other (the
+/// Embree comparison's tolerance), rays both miss, and the rest.
+pub fn agreement(pairs: impl Iterator<Item = (Option<f64>, Option<f64>)>) -> (usize, usize, usize) {
+    let (mut agree, mut both_miss, mut differ) = (0, 0, 0);
+    for p in pairs {
+        match p {
+            (None, None) => both_miss += 1,
+            (Some(x), Some(y)) if (x - y).abs() <= 1e-4 * x.abs().max(1.0) => agree += 1,
+            _ => differ += 1,
+        }
+    }
+    (agree, both_miss, differ)
+}
+
+/// The lowest and highest of `z`.
+pub fn z_range(z: &[f32]) -> (f32, f32) {
+    z.iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        })
+}
+
+/// Grid-local heights as the ray yardsticks read them: `w` samples a row, `cw x ch` cells,
+/// heights in `[zlo, zhi]`.
+pub struct LocalGrid {
+    /// Local heights, row-major.
+    pub z: Vec<f32>,
+    /// Samples a row.
+    pub w: usize,
+    /// Rows.
+    pub h: usize,
+    /// Cells along x.
+    pub cw: f32,
+    /// Cells along y.
+    pub ch: f32,
+    /// Lowest height.
+    pub zlo: f32,
+    /// Highest height.
+    pub zhi: f32,
+}
+
+impl LocalGrid {
+    /// The parameter interval `(t0, t1)` of local ray `o + t d` (with `inv` its inverse x and y
+    /// components) inside the grid's box, `None` when it misses it.
+    pub fn clip(&self, o: [f32; 3], d: [f32; 3], inv: [f32; 2]) -> Option<(f32, f32)> {
+        let (mut t0, mut t1) = (0.0f32, f32::INFINITY);
+        for (k, hi) in [(0, self.cw), (1, self.ch)] {
+            if d[k] == 0.0 {
+                if !(o[k] >= 0.0 && o[k] <= hi) {
+                    return None;
+                }
+            } else {
+                let (a, b) = ((0.0 - o[k]) * inv[k], (hi - o[k]) * inv[k]);
+                t0 = t0.max(a.min(b));
+                t1 = t1.min(a.max(b));
+            }
+        }
+        if d[2] < 0.0 {
+            t0 = t0.max((self.zhi - o[2]) / d[2]);
+            t1 = t1.min((self.zlo - 1.0 - o[2]) / d[2]);
+        } else if d[2] > 0.0 {
+            t1 = t1.min((self.zhi - o[2]) / d[2]);
+        } else if o[2] > self.zhi {
+            return None;
+        }
+        if t0.is_nan() || t1.is_nan() || t0 > t1 {
+            return None;
+        }
+        Some((t0, t1))
+    }
+
+    /// The ray yardsticks' cell test: the two triangles of cell `(x, y)` against the local ray
+    /// `o + t d` in `f64` (Moller-Trumbore), the nearest hit with `t` in `[ta, tb]` widened by
+    /// `1e-4` relative.
+    pub fn cell(
+        &self,
+        o: [f32; 3],
+        d: [f32; 3],
+        x: usize,
+        y: usize,
+        ta: f32,
+        tb: f32,
+    ) -> Option<f64> {
+        use relief_core::glam::DVec3;
+        let (z, w) = (&self.z, self.w);
+        let p = |x: usize, y: usize| DVec3::new(x as f64, y as f64, z[y * w + x] as f64);
+        let (a, b, c, e) = (p(x, y), p(x + 1, y), p(x + 1, y + 1), p(x, y + 1));
+        let (o, d) = (
+            DVec3::new(o[0] as f64, o[1] as f64, o[2] as f64),
+            DVec3::new(d[0] as f64, d[1] as f64, d[2] as f64),
+        );
+        let mut best: Option<f64> = None;
+        for (v0, v1, v2) in [(a, b, c), (a, c, e)] {
+            let (e1, e2) = (v1 - v0, v2 - v0);
+            let pv = d.cross(e2);
+            let det = e1.dot(pv);
+            if det.abs() < 1e-30 {
+                continue;
+            }
+            let tv = o - v0;
+            let u = tv.dot(pv) / det;
+            let q = tv.cross(e1);
+            let v = d.dot(q) / det;
+            let t = e2.dot(q) / det;
+            let eps = 1e-9;
+            if u >= -eps && v >= -eps && u + v <= 1.0 + eps {
+                let slack = 1e-4 * (tb as f64).abs().max(1.0);
+                if t >= ta as f64 - slack && t <= tb as f64 + slack && best.is_none_or(|b| t < b) {
+                    best = Some(t);
+                }
+            }
+        }
+        best
+    }
+}
+
+/// A ray yardstick: the hit parameter of a grid-local ray ([`MipRay`]), or `None`.
+pub trait LocalTracer {
+    /// Traces local origin `o` along `d`.
+    fn trace(&self, o: [f32; 3], d: [f32; 3]) -> Option<f64>;
+}
+
+/// Runs a ray yardstick (`mip_lean`, `mip_quad`) against the library's `trace_maxmip` on the
+/// bundled Puget grid's [`embree_views`]: the hits compared ([`agreement`]), then both timed in
+/// whole passes (fastest of `RUNS`, default 9, interleaved pass by pass) and in the Embree
+/// script's chunks (`relief trace --chunk-rays 4096 --chunk-reps 9`: each chunk of 4096
+/// consecutive rays traced 9 times, the fastest summed). `make` builds the yardstick from the
+/// grid; one line per view, `label` naming the yardstick.
+pub fn mip_yardstick<Y: LocalTracer>(label: &str, make: impl FnOnce(LocalGrid) -> Y) {
+    use relief_core::ray::{MaxMip, RayTracer};
+    let runs = runs(9);
+    let dem = puget();
+    let (w, h) = (dem.width, dem.height);
+    let hf = Heightfield::with_scale(&dem.samples, w, h, dem.scale).unwrap();
+    let z = local_heights(&hf);
+    let (zlo, zhi) = z_range(&z);
+    let y = make(LocalGrid {
+        z,
+        w: w as usize,
+        h: h as usize,
+        cw: (w - 1) as f32,
+        ch: (h - 1) as f32,
+        zlo,
+        zhi,
+    });
+    let mut buf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
+    let mip = MaxMip::build(&hf, &mut buf).unwrap();
+    let tracer = RayTracer::new(&hf, relief_core::Surface::Triangles);
+    let library = |r: &MipRay| tracer.trace_maxmip(&r.ray, &mip).ok();
+    for (name, rays) in embree_views(&dem) {
+        let (agree, both_miss, differ) = agreement(
+            rays.iter()
+                .map(|r| (library(r).unwrap().hit.map(|h| h.t), y.trace(r.o, r.d))),
+        );
+        let time = |rays: &[MipRay], reps: usize| {
+            let (mut best_y, mut best_l) = (f64::INFINITY, f64::INFINITY);
+            for _ in 0..reps {
+                let s = Instant::now();
+                for r in rays {
+                    black_box(y.trace(r.o, r.d));
+                }
+                best_y = best_y.min(s.elapsed().as_secs_f64());
+                let s = Instant::now();
+                for r in rays {
+                    black_box(library(r));
+                }
+                best_l = best_l.min(s.elapsed().as_secs_f64());
+            }
+            (best_y, best_l)
+        };
+        let (pass_y, pass_l) = time(&rays, runs);
+        let (chunk_y, chunk_l) = rays
+            .chunks(4096)
+            .map(|c| time(c, 9))
+            .fold((0.0, 0.0), |(a, b), (y, l)| (a + y, b + l));
+        let m = rays.len() as f64 / 1e6;
+        println!(
+            "{name:8} hits agree {agree} (both miss {both_miss}), differ {differ} | M rays/s, whole passes: {label} {:.2}, trace_maxmip {:.2} ({:.2}x) | chunked: {label} {:.2}, trace_maxmip {:.2} ({:.2}x)",
+            m / pass_y,
+            m / pass_l,
+            pass_l / pass_y,
+            m / chunk_y,
+            m / chunk_l,
+            chunk_l / chunk_y
+        );
+    }
 }

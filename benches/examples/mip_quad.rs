@@ -1,0 +1,208 @@
+//! Yardstick, not library code: the maximum mipmap traversed as a 4-ary bounding volume
+//! hierarchy (the way Embree traverses its BVH), against `RayTracer::trace_maxmip` (Tevs et
+//! al.'s neighbour walk, exact `f64` decisions) on the same rays. The case is the `triangles`
+//! surface on the bundled Puget grid (1024 x 1024 cells, a power of two).
+//!
+//! The question it answers (issue 4): the neighbour walk's step is a chain (slabs, then the
+//! entry parameter, then the child's index, then the next slabs), and `mip_lean` showed that a
+//! lean `f32` version of it gains only 1.1-1.3x. A hierarchy traversal instead tests a node's
+//! four children at once (the compiler makes it four-lane SSE): their slabs share three planes
+//! per axis (six products a node), entry and exit planes are picked by the ray's signs, the
+//! four maxima are one 16-byte load in Morton order (the node carries its Morton index), and
+//! the hit children go on a small stack nearest first; children that are cells are tested in
+//! place, nearest first. The first cell hit ends the ray (the children do not overlap in x and
+//! y, so every node left on the stack lies further along the ray). Decisions are `f32` with a
+//! margin (a child is entered when the ray's lowest point over it is within `1e-3` of its
+//! maximum and its slab interval, widened by `1e-5` relative, is not empty); cells are tested
+//! as in `mip_lean`: `f64` Moller-Trumbore on the two triangles. Hits are compared with the
+//! library's to `1e-4` relative distance, the tolerance of the Embree comparison. Views: the
+//! camera and grazing views of `bench-peers/embree_rays.sh` on Puget, 384 x 256 rays, the two
+//! tracers interleaved pass by pass (fastest of `RUNS`, default 9), then in the Embree
+//! script's chunks (4096 rays, fastest of 9 each, summed).
+//!
+//! `cargo run --release -p relief-benches --example mip_quad`
+
+mod common;
+
+/// Interleaves the bits of `v` (up to 16) with zeros.
+fn spread(v: u32) -> u32 {
+    let mut x = v & 0xffff;
+    x = (x | (x << 8)) & 0x00ff_00ff;
+    x = (x | (x << 4)) & 0x0f0f_0f0f;
+    x = (x | (x << 2)) & 0x3333_3333;
+    (x | (x << 1)) & 0x5555_5555
+}
+
+/// A complete quadtree of cell maxima over a `2^n x 2^n` domain, each level in Morton order
+/// (the four children of node `m` are `4m .. 4m + 4`); cells outside the grid are `-inf`.
+struct Quad {
+    /// `levels[l]`: `4^(n - l)` maxima; level 0 holds the cells.
+    levels: Vec<Vec<f32>>,
+    n: u32,
+}
+
+impl Quad {
+    fn new(z: &[f32], w: usize, h: usize) -> Quad {
+        let (cw, ch) = (w - 1, h - 1);
+        let n = cw.max(ch).next_power_of_two().trailing_zeros();
+        let side = 1usize << n;
+        let mut l0 = vec![f32::NEG_INFINITY; side * side];
+        for y in 0..ch {
+            for x in 0..cw {
+                let m = [
+                    z[y * w + x],
+                    z[y * w + x + 1],
+                    z[(y + 1) * w + x],
+                    z[(y + 1) * w + x + 1],
+                ];
+                l0[(spread(x as u32) | spread(y as u32) << 1) as usize] =
+                    m[0].max(m[1]).max(m[2]).max(m[3]);
+            }
+        }
+        let mut levels = vec![l0];
+        while levels.last().is_some_and(|l| l.len() > 1) {
+            let c = levels.last().unwrap();
+            let p = c
+                .chunks_exact(4)
+                .map(|q| q[0].max(q[1]).max(q[2]).max(q[3]))
+                .collect();
+            levels.push(p);
+        }
+        Quad { levels, n }
+    }
+}
+
+struct Tracer {
+    g: common::LocalGrid,
+    quad: Quad,
+}
+
+/// A node on the stack: level, cell-space index, Morton index and its parameter interval.
+#[derive(Clone, Copy, Default)]
+struct Entry {
+    level: u32,
+    ix: u32,
+    iy: u32,
+    m: u32,
+    ta: f32,
+    tb: f32,
+}
+
+impl common::LocalTracer for Tracer {
+    /// The hit parameter of local ray `o + t d` (`t` as for the world ray), or `None`.
+    fn trace(&self, o: [f32; 3], d: [f32; 3]) -> Option<f64> {
+        // A finite inverse for a zero component, so that the node slabs stay finite.
+        let safe = |v: f32| {
+            if v.abs() > 1e-20 {
+                1.0 / v
+            } else {
+                1e20f32.copysign(v)
+            }
+        };
+        let inv = [safe(d[0]), safe(d[1])];
+        let (t0, t1) = self.g.clip(o, d, inv)?;
+        let down = d[2] < 0.0;
+        let (fx, fy) = (usize::from(d[0] < 0.0), usize::from(d[1] < 0.0));
+        let near = fx | fy << 1;
+        let eps = 1e-5 * t1.abs().max(1.0);
+        let mut stack = [Entry::default(); 64];
+        stack[0] = Entry {
+            level: self.quad.n,
+            ix: 0,
+            iy: 0,
+            m: 0,
+            ta: t0,
+            tb: t1,
+        };
+        let mut sp = 1usize;
+        // Bounded: every node is pushed at most once (a tree has fewer than 2 (4^n) nodes).
+        while sp > 0 {
+            sp -= 1;
+            let e = stack[sp];
+            if e.level == 0 {
+                let (x, y) = (e.ix as usize, e.iy as usize);
+                if let Some(t) = self.g.cell(o, d, x, y, e.ta - eps, e.tb + eps) {
+                    return Some(t);
+                }
+                continue;
+            }
+            // The children's entry and exit parameters per axis, by the ray's signs (no
+            // min/max): column cx enters at plane cx + fx and leaves at plane cx + 1 - fx.
+            let l = e.level - 1;
+            let s = (1u32 << l) as f32;
+            let (x0, y0) = ((2 * e.ix) as f32 * s, (2 * e.iy) as f32 * s);
+            let px = [x0 - o[0], x0 + s - o[0], x0 + 2.0 * s - o[0]];
+            let py = [y0 - o[1], y0 + s - o[1], y0 + 2.0 * s - o[1]];
+            let tx = [px[0] * inv[0], px[1] * inv[0], px[2] * inv[0]];
+            let ty = [py[0] * inv[1], py[1] * inv[1], py[2] * inv[1]];
+            let (ex, xx) = if fx == 0 {
+                ([tx[0], tx[1]], [tx[1], tx[2]])
+            } else {
+                ([tx[1], tx[2]], [tx[0], tx[1]])
+            };
+            let (ey, xy) = if fy == 0 {
+                ([ty[0], ty[1]], [ty[1], ty[2]])
+            } else {
+                ([ty[1], ty[2]], [ty[0], ty[1]])
+            };
+            let base = 4 * e.m as usize;
+            let Some(maxima) = self.quad.levels[l as usize].get(base..base + 4) else {
+                continue;
+            };
+            let mut ta = [0.0f32; 4];
+            let mut tb = [0.0f32; 4];
+            let mut hit = [false; 4];
+            for c in 0..4 {
+                let (cx, cy) = (c & 1, c >> 1);
+                ta[c] = ex[cx].max(ey[cy]).max(e.ta);
+                tb[c] = xx[cx].min(xy[cy]).min(e.tb);
+                let low = o[2] + d[2] * if down { tb[c] } else { ta[c] };
+                hit[c] = (ta[c] <= tb[c] + eps) & (low <= maxima[c] + 1e-3);
+            }
+            // The children in ray order: the one at the entry corner, then the two sides
+            // (the one across the first mid-line crossed first), then the far one. Pushed in
+            // reverse, so the nearest is on top.
+            let (sa, sb) = if tx[1] <= ty[1] {
+                (near ^ 1, near ^ 2)
+            } else {
+                (near ^ 2, near ^ 1)
+            };
+            if l == 0 {
+                // The children are cells: test them here, nearest first.
+                for c in [near, sa, sb, near ^ 3] {
+                    if hit[c] {
+                        let (x, y) = (
+                            (2 * e.ix) as usize + (c & 1),
+                            (2 * e.iy) as usize + (c >> 1),
+                        );
+                        if let Some(t) = self.g.cell(o, d, x, y, ta[c] - eps, tb[c] + eps) {
+                            return Some(t);
+                        }
+                    }
+                }
+                continue;
+            }
+            for c in [near ^ 3, sb, sa, near] {
+                if hit[c] && sp < stack.len() {
+                    stack[sp] = Entry {
+                        level: l,
+                        ix: 2 * e.ix + (c & 1) as u32,
+                        iy: 2 * e.iy + (c >> 1) as u32,
+                        m: (base + c) as u32,
+                        ta: ta[c],
+                        tb: tb[c],
+                    };
+                    sp += 1;
+                }
+            }
+        }
+        None
+    }
+}
+
+fn main() {
+    common::mip_yardstick("quadtree", |g| {
+        let quad = Quad::new(&g.z, g.w, g.h);
+        Tracer { g, quad }
+    });
+}
