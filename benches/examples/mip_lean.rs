@@ -129,7 +129,7 @@ impl common::LocalTracer for Lean {
 }
 
 fn main() {
-    common::mip_yardstick("lean", |g| {
+    let _ = common::mip_yardstick("lean", |g| {
         let mip = Pyramid::new(&g.z, g.w, g.h);
         Lean { g, mip }
     });

@@ -619,8 +619,8 @@ pub trait LocalTracer {
 /// whole passes (fastest of `RUNS`, default 9, interleaved pass by pass) and in the Embree
 /// script's chunks (`relief trace --chunk-rays 4096 --chunk-reps 9`: each chunk of 4096
 /// consecutive rays traced 9 times, the fastest summed). `make` builds the yardstick from the
-/// grid; one line per view, `label` naming the yardstick.
-pub fn mip_yardstick<Y: LocalTracer>(label: &str, make: impl FnOnce(LocalGrid) -> Y) {
+/// grid; one line per view, `label` naming the yardstick. Returns the yardstick.
+pub fn mip_yardstick<Y: LocalTracer>(label: &str, make: impl FnOnce(LocalGrid) -> Y) -> Y {
     use relief_core::ray::{MaxMip, RayTracer};
     let runs = runs(9);
     let dem = puget();
@@ -678,4 +678,5 @@ pub fn mip_yardstick<Y: LocalTracer>(label: &str, make: impl FnOnce(LocalGrid) -
             chunk_l / chunk_y
         );
     }
+    y
 }
