@@ -10,8 +10,9 @@
 # another backend). The tests find their data through the path they were built at, so `run`
 # links that path to this checkout when it differs. Prints the adapter, test results, the
 # effect table at 640x360 and 1920x1080 (median of 15 frames), three `relief render --json`
-# frames at 1080p (maxmip, cascades, mesh) and three images past lavapipe's limits (rendered or
-# refused in one line); exits non-zero if a test fails or a run ends otherwise.
+# frames at 1080p (maxmip, cascades, mesh), three images past lavapipe's limits and the
+# terrains of `large_terrains.sh` (rendered or refused in one line; that script needs python3 to
+# write its DEMs); exits non-zero if a test fails or a run ends otherwise.
 set -uo pipefail
 cd "$(dirname "$0")/../../.."
 mode=${1:-}
@@ -71,6 +72,10 @@ run)
     echo "exit $rc"
     [ "$rc" = 0 ] || [ "$rc" = 2 ] || status=1
   done
+  # Terrains near one 128 MiB binding: march and silhouette without the pyramid, lit ones with
+  # 8-byte gradients (each rendered or refused in one line).
+  echo "== large terrains"
+  bash adapters/wgpu/bench/large_terrains.sh "$dir/relief" || status=1
   exit $status
   ;;
 *)
