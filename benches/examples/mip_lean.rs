@@ -20,18 +20,12 @@ struct Pyramid {
 }
 
 impl Pyramid {
-    fn new(z: &[f32], w: usize, h: usize) -> Pyramid {
-        let (cw, ch) = (w - 1, h - 1);
+    fn new(g: &common::LocalGrid) -> Pyramid {
+        let (cw, ch) = (g.w - 1, g.h - 1);
         let mut l0 = vec![0.0f32; cw * ch];
         for y in 0..ch {
             for x in 0..cw {
-                let c = [
-                    z[y * w + x],
-                    z[y * w + x + 1],
-                    z[(y + 1) * w + x],
-                    z[(y + 1) * w + x + 1],
-                ];
-                l0[y * cw + x] = c[0].max(c[1]).max(c[2]).max(c[3]);
+                l0[y * cw + x] = g.cell_max(x, y);
             }
         }
         let mut levels = vec![(l0, cw, ch)];
@@ -130,7 +124,7 @@ impl common::LocalTracer for Lean {
 
 fn main() {
     let _ = common::mip_yardstick("lean", |g| {
-        let mip = Pyramid::new(&g.z, g.w, g.h);
+        let mip = Pyramid::new(&g);
         Lean { g, mip }
     });
 }

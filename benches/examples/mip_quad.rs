@@ -45,21 +45,14 @@ struct Quad {
 }
 
 impl Quad {
-    fn new(z: &[f32], w: usize, h: usize) -> Quad {
-        let (cw, ch) = (w - 1, h - 1);
+    fn new(g: &common::LocalGrid) -> Quad {
+        let (cw, ch) = (g.w - 1, g.h - 1);
         let n = cw.max(ch).next_power_of_two().trailing_zeros();
         let side = 1usize << n;
         let mut l0 = vec![f32::NEG_INFINITY; side * side];
         for y in 0..ch {
             for x in 0..cw {
-                let m = [
-                    z[y * w + x],
-                    z[y * w + x + 1],
-                    z[(y + 1) * w + x],
-                    z[(y + 1) * w + x + 1],
-                ];
-                l0[(spread(x as u32) | spread(y as u32) << 1) as usize] =
-                    m[0].max(m[1]).max(m[2]).max(m[3]);
+                l0[(spread(x as u32) | spread(y as u32) << 1) as usize] = g.cell_max(x, y);
             }
         }
         let mut levels = vec![l0];
@@ -450,7 +443,7 @@ fn packets(qt: &Tracer) {
 
 fn main() {
     let qt = common::mip_yardstick("quadtree", |g| {
-        let quad = Quad::new(&g.z, g.w, g.h);
+        let quad = Quad::new(&g);
         Tracer { g, quad }
     });
     packets(&qt);

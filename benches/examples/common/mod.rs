@@ -534,6 +534,18 @@ pub struct LocalGrid {
 }
 
 impl LocalGrid {
+    /// The highest of cell `(x, y)`'s four corners (the finest level of a maximum mipmap).
+    pub fn cell_max(&self, x: usize, y: usize) -> f32 {
+        let (z, w) = (&self.z, self.w);
+        let c = [
+            z[y * w + x],
+            z[y * w + x + 1],
+            z[(y + 1) * w + x],
+            z[(y + 1) * w + x + 1],
+        ];
+        c[0].max(c[1]).max(c[2]).max(c[3])
+    }
+
     /// The parameter interval `(t0, t1)` of local ray `o + t d` (with `inv` its inverse x and y
     /// components) inside the grid's box, `None` when it misses it.
     pub fn clip(&self, o: [f32; 3], d: [f32; 3], inv: [f32; 2]) -> Option<(f32, f32)> {

@@ -564,20 +564,18 @@ pub(crate) fn render_cpu(
         f64::from(dhf.height() - 1) * f64::from(scale.dy),
     );
     let opts = MarchOptions::default();
+    // The pyramid exists exactly for max-mip tracing.
     let trace = |ray: &Ray| -> Result<Option<relief_core::Hit>, String> {
-        if march {
-            Ok(tracer
+        match &mip {
+            Some(mip) => Ok(tracer
+                .trace_maxmip(ray, mip)
+                .map_err(|e| e.to_string())?
+                .hit),
+            None => Ok(tracer
                 .trace_march(ray, &opts)
                 .map_err(|e| e.to_string())?
                 .trace
-                .hit)
-        } else if let Some(mip) = &mip {
-            Ok(tracer
-                .trace_maxmip(ray, mip)
-                .map_err(|e| e.to_string())?
-                .hit)
-        } else {
-            Err("no max-mip pyramid".to_string())
+                .hit),
         }
     };
     let (shadows, fog) = (has(Effect::Shadows), has(Effect::Fog));
