@@ -15,6 +15,10 @@
 //! - *stack, lookahead*: the stack walk on its own records, which also hold two per-triangle
 //!   bounds of the children's errors (`vd_lookahead`), writing a split's children as leaves
 //!   without deciding them when the bound settles them (same triangles, same order);
+//! - *pair*: the stack walk deciding both children of a split before pushing them, so that a
+//!   popped entry's kind was decided long before (on its own records in `f32` and in `f64`,
+//!   and on the library's records; the same triangles in the same order as the stack walk on
+//!   the same data);
 //! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
 //!   records, and `Refiner::triangles` (compact vertices, renumbered) for reference.
 //!
@@ -62,6 +66,11 @@ const LIB: u8 = 2;
 /// [`OWN_F32`] with the lookahead of `vd_lookahead`: a split whose children the per-triangle
 /// bound in the record's fourth slot settles writes them as leaves without deciding them.
 const OWN_LOOK: u8 = 3;
+
+/// Stack entry kinds of [`Frame::dfs_pair`].
+const CULLED: u32 = 0;
+const LEAF: u32 = 1;
+const SPLIT: u32 = 2;
 
 #[inline(always)]
 fn xy(p: u32) -> (u32, u32) {
@@ -191,6 +200,71 @@ impl Frame<'_> {
                 out[no] = tri;
                 no += 1;
             }
+        }
+        no
+    }
+
+    /// The decision of `t` at `level` as a stack entry's kind: [`CULLED`], [`LEAF`] or
+    /// [`SPLIT`] (with the planes still active written into `t`).
+    #[inline(always)]
+    fn kind<const SRC: u8>(&self, t: &mut Tri, level: u32) -> u32 {
+        if level >= self.v.levels {
+            return LEAF;
+        }
+        match self.decide_in::<SRC>((t.l + t.r) >> 1, t.planes, level) {
+            None => CULLED,
+            Some((split, planes)) => {
+                t.planes = planes;
+                if split {
+                    SPLIT
+                } else {
+                    LEAF
+                }
+            }
+        }
+    }
+
+    /// [`Frame::dfs_stack`] with both children decided when their parent splits, before either
+    /// is pushed: the two record loads and decisions are independent, and the branch on a
+    /// popped entry's kind reads a value decided long before (same triangles, same order).
+    fn dfs_pair<const SRC: u8>(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
+        let mut stack = [(Tri::default(), 0u32, 0u32); 64];
+        let (mut r0, mut r1) = (roots[0], roots[1]);
+        let k0 = self.kind::<SRC>(&mut r0, 0);
+        let k1 = self.kind::<SRC>(&mut r1, 0);
+        stack[0] = (r1, 0, k1);
+        stack[1] = (r0, 0, k0);
+        let mut sp = 2usize;
+        let mut no = 0usize;
+        while sp > 0 {
+            sp -= 1;
+            let (t, level, kind) = stack[sp];
+            if kind == LEAF {
+                out[no] = [self.index(t.l), self.index(t.r), self.index(t.a)];
+                no += 1;
+                continue;
+            }
+            if kind == CULLED {
+                continue;
+            }
+            let m = (t.l + t.r) >> 1;
+            let mut a = Tri {
+                l: t.a,
+                r: t.l,
+                a: m,
+                planes: t.planes,
+            };
+            let mut b = Tri {
+                l: t.r,
+                r: t.a,
+                a: m,
+                planes: t.planes,
+            };
+            let ka = self.kind::<SRC>(&mut a, level + 1);
+            let kb = self.kind::<SRC>(&mut b, level + 1);
+            stack[sp] = (b, level + 1, kb);
+            stack[sp + 1] = (a, level + 1, ka);
+            sp += 2;
         }
         no
     }
@@ -369,6 +443,9 @@ fn main() {
     let mut out64 = vec![[0u32; 3]; bound + 1];
     let mut out_lib = vec![[0u32; 3]; bound + 1];
     let mut out_look = vec![[0u32; 3]; bound + 1];
+    let mut out_pair = vec![[0u32; 3]; bound + 1];
+    let mut out_pair_lib = vec![[0u32; 3]; bound + 1];
+    let mut out_pair64 = vec![[0u32; 3]; bound + 1];
     let mut tris_g = [
         vec![[0u32; 3]; bound],
         vec![[0u32; 3]; bound],
@@ -430,6 +507,24 @@ fn main() {
         // The lookahead writes the same triangles in the same order.
         let nl = f.dfs_stack::<OWN_LOOK>(roots, &mut out2);
         assert_eq!(&out2[..nl], &got[..], "the lookahead changed the triangles");
+        let np = f.dfs_pair::<OWN_F32>(roots, &mut out2);
+        assert_eq!(&out2[..np], &got[..], "the pair walk changed the triangles");
+        let n64 = f.dfs_stack::<OWN_F64>(roots, &mut out2);
+        let f64_ref = out2[..n64].to_vec();
+        let np64 = f.dfs_pair::<OWN_F64>(roots, &mut out2);
+        assert_eq!(
+            &out2[..np64],
+            &f64_ref[..],
+            "the pair walk changed the triangles"
+        );
+        let nl1 = f.dfs_stack::<LIB>(roots, &mut out2);
+        let lib_ref = out2[..nl1].to_vec();
+        let nl2 = f.dfs_pair::<LIB>(roots, &mut out2);
+        assert_eq!(
+            &out2[..nl2],
+            &lib_ref[..],
+            "the pair walk changed the triangles"
+        );
         got.sort_unstable();
         assert_eq!(got, reference, "stack and recursive triangles differ");
         let (r, rl, ri) = (&r, &rl, &ri);
@@ -454,6 +549,18 @@ fn main() {
             (
                 "stack, lookahead",
                 Box::new(|| f.dfs_stack::<OWN_LOOK>(roots, &mut out_look)),
+            ),
+            (
+                "pair, own records",
+                Box::new(|| f.dfs_pair::<OWN_F32>(roots, &mut out_pair)),
+            ),
+            (
+                "pair, f64 decisions",
+                Box::new(|| f.dfs_pair::<OWN_F64>(roots, &mut out_pair64)),
+            ),
+            (
+                "pair, library records",
+                Box::new(|| f.dfs_pair::<LIB>(roots, &mut out_pair_lib)),
             ),
             (
                 "stack, f64 decisions",
