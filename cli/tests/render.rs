@@ -399,6 +399,55 @@ fn water_surface_file_is_rendered_and_checked() {
     assert_one_line_error(&out, "expected");
 }
 
+/// The CPU backend marches a water surface file as the GPU does: the same depths (to `1e-3`)
+/// on 99.9% of the pixels, water in front of the terrain on a good share of them, and the
+/// surface's waves matter (a flat flood at the mean level gives other depths).
+#[test]
+fn cpu_backend_renders_a_water_surface_like_the_gpu() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path();
+    // Waves of +-12 m around 30 m over the bundled map (1025 x 1025 samples).
+    let wave = |i: usize| 30.0 + 12.0 * ((i % 1025) as f32 * 0.02).sin();
+    let write = |name: &str, f: &dyn Fn(usize) -> f32| {
+        let path = p.join(name);
+        let bytes: Vec<u8> = (0..1025 * 1025).flat_map(|i| f(i).to_le_bytes()).collect();
+        std::fs::write(&path, bytes).unwrap();
+        path.display().to_string()
+    };
+    let waves = write("waves.f32", &wave);
+    let flat = write("flat.f32", &|_| 30.0);
+    let water = ["--effects", "water", "--water-surface"];
+    let cpu = |name: &str, file: &str| {
+        render(
+            p,
+            name,
+            &[&["--backend", "cpu"][..], &water[..], &[file]].concat(),
+        )
+        .unwrap()
+        .1
+    };
+    let cd = cpu("cpu_waves", &waves);
+    let (_, dry) = render(p, "cpu_dry", &["--backend", "cpu"]).unwrap();
+    let wet = cd.iter().zip(&dry).filter(|(w, t)| w < t).count();
+    assert!(wet > cd.len() / 20, "water in front on only {wet} pixels");
+    let fd = cpu("cpu_flat", &flat);
+    let moved = cd.len() - same_depth(&cd, &fd, 1e-3);
+    assert!(moved > cd.len() / 50, "the waves moved only {moved} pixels");
+    let Some((_, gd)) = render(p, "gpu_waves", &[&water[..], &[&waves]].concat()) else {
+        return;
+    };
+    let same = same_depth(&gd, &cd, 1e-3);
+    eprintln!(
+        "water surface: {wet} wet, {moved} moved by the waves, CPU = GPU on {same} of {}",
+        cd.len()
+    );
+    assert!(
+        same as f64 >= 0.999 * cd.len() as f64,
+        "water surface: CPU and GPU depth agree on {same} of {}",
+        cd.len()
+    );
+}
+
 fn read_png(path: &Path) -> Vec<[u8; 4]> {
     let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(path).unwrap()));
     let mut reader = dec.read_info().unwrap();

@@ -240,6 +240,22 @@ mod shader_validation {
         );
     }
 
+    /// The CPU water march ([`crate::raycast::water_surface_hit`]) takes the shader's sample
+    /// counts.
+    #[test]
+    fn the_cpu_water_march_has_the_shaders_counts() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shaders/raycast.wgsl");
+        let src = std::fs::read_to_string(path).unwrap();
+        for (name, n) in [
+            ("WATER_STEPS", crate::raycast::WATER_STEPS),
+            ("WATER_REFINE", crate::raycast::WATER_REFINE),
+        ] {
+            let line = format!("const {name}: u32 = {n}u;");
+            assert!(src.contains(&line), "shaders/raycast.wgsl lacks `{line}`");
+        }
+    }
+
     #[test]
     fn a_broken_shader_is_rejected() {
         let bad = "@compute @workgroup_size(8, 8) fn f() { let x: f32 = 1u; }";

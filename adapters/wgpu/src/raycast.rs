@@ -147,6 +147,105 @@ impl RayEffects {
     }
 }
 
+/// Linear samples of the water-surface march (`WATER_STEPS` in `shaders/raycast.wgsl`).
+pub const WATER_STEPS: u32 = 128;
+/// Bisections after the first sample below the water (`WATER_REFINE` in the shader).
+pub const WATER_REFINE: u32 = 8;
+
+/// The CPU reference of the shader's water-surface march (`trace_water` in
+/// `shaders/raycast.wgsl`, in `f64`): the first parameter `t` at which the ray `o + t d` is at
+/// or below the water surface, or `None`. Heightfield-local coordinates: `x`, `y` in grid
+/// units (world divided by the spacing), `z` local (world minus the terrain's z offset);
+/// `water` holds one local height per terrain sample, row-major over `width x height`,
+/// interpolated bilinearly and clamped to the grid. The ray is clipped to the grid's extent
+/// and to `t <= t_end` (the terrain's hit), then sampled at [`WATER_STEPS`] + 1 evenly spaced
+/// points; the first sample below the water is refined by [`WATER_REFINE`] bisections with
+/// the sample before it (seed 003's linear + binary search). `None` as well for a grid
+/// smaller than 2 x 2, a `water` of another size, or no finite `t_end` and no exit.
+///
+/// ```
+/// use relief_wgpu::raycast::water_surface_hit;
+/// // Water at local height 1 over a 3 x 3 grid; a ray going down from height 3.
+/// let water = [1.0f32; 9];
+/// let t = water_surface_hit(&water, 3, 3, [0.5, 1.0, 3.0], [0.5, 0.0, -1.0], f64::INFINITY).unwrap();
+/// assert!((t - 2.0).abs() < 1e-3);
+/// assert_eq!(water_surface_hit(&water, 3, 3, [0.5, 1.0, 3.0], [0.5, 0.0, -1.0], 1.5), None);
+/// ```
+pub fn water_surface_hit(
+    water: &[f32],
+    width: u32,
+    height: u32,
+    o: [f64; 3],
+    d: [f64; 3],
+    t_end: f64,
+) -> Option<f64> {
+    if width < 2 || height < 2 || water.len() != width as usize * height as usize {
+        return None;
+    }
+    let (w, h) = (width, height);
+    let water_at = |gx: f64, gy: f64| -> f64 {
+        let (x, y) = (
+            gx.clamp(0.0, f64::from(w - 1)),
+            gy.clamp(0.0, f64::from(h - 1)),
+        );
+        let (x0, y0) = ((x.floor() as u32).min(w - 2), (y.floor() as u32).min(h - 2));
+        let (fx, fy) = (x - f64::from(x0), y - f64::from(y0));
+        let at = |x: u32, y: u32| {
+            f64::from(
+                water
+                    .get((y as usize) * w as usize + x as usize)
+                    .copied()
+                    .unwrap_or(f32::NAN),
+            )
+        };
+        let a = at(x0, y0) + (at(x0 + 1, y0) - at(x0, y0)) * fx;
+        let b = at(x0, y0 + 1) + (at(x0 + 1, y0 + 1) - at(x0, y0 + 1)) * fx;
+        a + (b - a) * fy
+    };
+    let (mut t0, mut t1) = (0.0f64, t_end);
+    for (k, ext) in [f64::from(w - 1), f64::from(h - 1)].into_iter().enumerate() {
+        if d[k] == 0.0 {
+            if !(o[k] >= 0.0 && o[k] <= ext) {
+                return None;
+            }
+        } else {
+            let (a, b) = ((0.0 - o[k]) / d[k], (ext - o[k]) / d[k]);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b));
+        }
+    }
+    if !(t0 <= t1 && t1.is_finite()) {
+        return None;
+    }
+    let below = |t: f64| o[2] + t * d[2] <= water_at(o[0] + t * d[0], o[1] + t * d[1]);
+    let step = (t1 - t0) / f64::from(WATER_STEPS);
+    let mut prev = t0;
+    for s in 0..=WATER_STEPS {
+        let t = if s == WATER_STEPS {
+            t1
+        } else {
+            t0 + step * f64::from(s)
+        };
+        if below(t) {
+            let (mut lo, mut hi) = (prev, t);
+            for _ in 0..WATER_REFINE {
+                if hi <= lo {
+                    break;
+                }
+                let mid = 0.5 * (lo + hi);
+                if below(mid) {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            return Some(hi);
+        }
+        prev = t;
+    }
+    None
+}
+
 /// Shading parameters (used only by the effects that are on).
 ///
 /// Defaults: sun from the south-west at 35 degrees elevation, ambient 0.3, fog colour light

@@ -1616,18 +1616,6 @@ fn water_surface_from_the_rbf_approximation_matches_the_cpu() {
     let mut buf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
     let mip = MaxMip::build(&hf, &mut buf).unwrap();
     let tracer = RayTracer::new(&hf, Surface::Triangles);
-    let water_at = |gx: f64, gy: f64| -> f64 {
-        let (x, y) = (
-            gx.clamp(0.0, f64::from(w - 1)),
-            gy.clamp(0.0, f64::from(h - 1)),
-        );
-        let (x0, y0) = ((x.floor() as u32).min(w - 2), (y.floor() as u32).min(h - 2));
-        let (fx, fy) = (x - f64::from(x0), y - f64::from(y0));
-        let at = |x: u32, y: u32| f64::from(water[(y * w + x) as usize]);
-        let a = at(x0, y0) + (at(x0 + 1, y0) - at(x0, y0)) * fx;
-        let b = at(x0, y0 + 1) + (at(x0 + 1, y0 + 1) - at(x0, y0 + 1)) * fx;
-        a + (b - a) * fy
-    };
     let mut cd = Vec::new();
     let (mut water_px, mut terrain_px) = (0, 0);
     for j in 0..cam.height {
@@ -1642,49 +1630,8 @@ fn water_surface_from_the_rbf_approximation_matches_the_cpu() {
             // Local coordinates: grid units horizontally.
             let (o, d) = (o.as_dvec3(), d.as_dvec3());
             let (ol, dl) = ([o.x / 3.0, o.y / 3.0, o.z], [d.x / 3.0, d.y / 3.0, d.z]);
-            let (mut t0, mut t1) = (0.0f64, tt);
-            let mut inside = true;
-            for k in 0..2 {
-                let ext = f64::from(if k == 0 { w - 1 } else { h - 1 });
-                if dl[k] == 0.0 {
-                    inside &= ol[k] >= 0.0 && ol[k] <= ext;
-                } else {
-                    let (a, b) = ((0.0 - ol[k]) / dl[k], (ext - ol[k]) / dl[k]);
-                    t0 = t0.max(a.min(b));
-                    t1 = t1.min(a.max(b));
-                }
-            }
-            let mut tw = f64::INFINITY;
-            if inside && t0 <= t1 && t1.is_finite() {
-                let step = (t1 - t0) / 128.0;
-                let below =
-                    |t: f64| ol[2] + t * dl[2] <= water_at(ol[0] + t * dl[0], ol[1] + t * dl[1]);
-                let mut prev = t0;
-                for s in 0..=128 {
-                    let t = if s == 128 {
-                        t1
-                    } else {
-                        t0 + step * f64::from(s)
-                    };
-                    if below(t) {
-                        let (mut lo, mut hi) = (prev, t);
-                        for _ in 0..8 {
-                            if hi <= lo {
-                                break;
-                            }
-                            let mid = 0.5 * (lo + hi);
-                            if below(mid) {
-                                hi = mid;
-                            } else {
-                                lo = mid;
-                            }
-                        }
-                        tw = hi;
-                        break;
-                    }
-                    prev = t;
-                }
-            }
+            let tw = relief_wgpu::raycast::water_surface_hit(&water, w, h, ol, dl, tt)
+                .unwrap_or(f64::INFINITY);
             if tw < tt {
                 water_px += 1;
                 cd.push(tw as f32);

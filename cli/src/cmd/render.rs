@@ -14,6 +14,7 @@ use relief_core::ray::{MarchOptions, MaxMip, Ray, RayTracer};
 use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner, View};
 use relief_core::{normal_map, Camera, Composed, Heightfield, NormalMethod, Surface, Terrain};
 use relief_wgpu::mesh::{depth_to_distance, MeshStyle};
+use relief_wgpu::raycast::water_surface_hit;
 use relief_wgpu::terrain::Crater;
 use relief_wgpu::{DepthTarget, Effect, MeshPass, Renderer, Scene};
 use std::path::{Path, PathBuf};
@@ -327,28 +328,7 @@ fn render_gpu(
         scene = scene.with_craters(&craters(hf));
     }
     if let Some(path) = &a.water_surface {
-        let bytes =
-            std::fs::read(path).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
-        let n = hf.width() as usize * hf.height() as usize;
-        if bytes.len() != n * 4 {
-            return Err(CliError(format!(
-                "{}: {} bytes, expected {} (one f32 per DEM sample)",
-                path.display(),
-                bytes.len(),
-                n * 4
-            )));
-        }
-        let heights: Vec<f32> = bytes
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
-        if heights.iter().any(|z| !z.is_finite()) {
-            return Err(CliError(format!(
-                "{}: non-finite water height",
-                path.display()
-            )));
-        }
-        scene = scene.with_water_surface(heights);
+        scene = scene.with_water_surface(read_water_surface(path, hf)?);
     }
     if effects.contains(&Effect::Water) {
         let s = *scene.shading();
@@ -475,14 +455,60 @@ fn albedo(s: f32) -> Vec3 {
     }
 }
 
+/// The colour, depth and normal of a pixel whose ray meets the water at `tw`, in front of the
+/// terrain's hit at `depth` (`inf` for none), as shaders/raycast.wgsl shades it: the colour
+/// mixed halfway to the water's, then darkened with the depth of water above the ground; the
+/// water faces up.
+fn under_water(
+    c: Vec3,
+    depth: f32,
+    tw: f32,
+    shading: &relief_wgpu::raycast::Shading,
+) -> (Vec3, f32, [f32; 3]) {
+    let below = if depth.is_finite() {
+        ((depth - tw) * 0.002).min(1.0)
+    } else {
+        0.0
+    };
+    let wc = shading.water_color;
+    (c.lerp(wc, 0.5).lerp(wc * 0.6, below), tw, [0.0, 0.0, 1.0])
+}
+
+/// Reads `--water-surface`: little-endian `f32`, one finite world height per DEM sample.
+fn read_water_surface(path: &Path, hf: &Heightfield<'_, f32>) -> CliResult<Vec<f32>> {
+    let bytes = std::fs::read(path).map_err(|e| CliError(format!("{}: {e}", path.display())))?;
+    let n = hf.width() as usize * hf.height() as usize;
+    if bytes.len() != n * 4 {
+        return Err(CliError(format!(
+            "{}: {} bytes, expected {} (one f32 per DEM sample)",
+            path.display(),
+            bytes.len(),
+            n * 4
+        )));
+    }
+    let heights: Vec<f32> = bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    if heights.iter().any(|z| !z.is_finite()) {
+        return Err(CliError(format!(
+            "{}: non-finite water height",
+            path.display()
+        )));
+    }
+    Ok(heights)
+}
+
 /// The CPU backend: max-mip (or march) tracing with the effects that need only core functions
 /// and the GPU shader's CPU references: lighting (the core's Sobel normal map of the traced
 /// heights, with the detail map composed when named, sampled bilinearly at the hit as the
-/// shader samples the GPU's), shadows, fog, the detail map's colour, the water plane and
-/// deformations (the craters applied to the heights with [`Crater::lowering`], then traced).
+/// shader samples the GPU's), shadows, fog, the detail map's colour, the water plane or a water
+/// surface (`water_surface`, world heights per sample, marched as the shader marches it:
+/// [`relief_wgpu::raycast::water_surface_hit`]) and deformations (the craters applied to the
+/// heights with [`Crater::lowering`], then traced).
 /// Like the GPU it builds only what the scene names: the pyramid for max-mip tracing, the
 /// normal map for lighting.
-/// Not on the CPU: a water *surface* file, depth output (a GPU depth buffer for meshes), the
+/// Not on the CPU: depth output (a GPU depth buffer for meshes), the
 /// cascade ray cast and the mesh method (it would need a CPU rasteriser); silhouette
 /// partitioning has its own CPU path ([`render_cpu_silhouette`]). Also the report's fallback for effect costs where no GPU adapter exists.
 pub(crate) fn render_cpu(
@@ -490,6 +516,7 @@ pub(crate) fn render_cpu(
     camera: &Camera,
     march: bool,
     effects: &[Effect],
+    water_surface: Option<&[f32]>,
 ) -> CliResult<Rendered> {
     if let Some(e) = effects.iter().find(|e| **e == Effect::DepthOutput) {
         return Err(CliError(format!(
@@ -559,6 +586,10 @@ pub(crate) fn render_cpu(
     };
     let normals_ms = t0.elapsed().as_secs_f64() * 1e3;
     let water = has(Effect::Water).then(|| water_level(hf));
+    // The water surface in local heights, as the GPU uploads it.
+    let water_local: Option<Vec<f32>> = water_surface
+        .filter(|_| has(Effect::Water))
+        .map(|ws| ws.iter().map(|z| z - scale.z_offset).collect());
     let extent = (
         f64::from(dhf.width() - 1) * f64::from(scale.dx),
         f64::from(dhf.height() - 1) * f64::from(scale.dy),
@@ -628,7 +659,19 @@ pub(crate) fn render_cpu(
                         }
                         depth = hit.t as f32;
                     }
-                    if let Some(level) = water {
+                    if let Some(ws) = &water_local {
+                        // The water surface, marched up to the terrain's hit in local
+                        // coordinates (grid units horizontally), as shaders/raycast.wgsl does.
+                        let (o, d) = (o.as_dvec3(), d.as_dvec3());
+                        let (sx, sy) = (f64::from(scale.dx), f64::from(scale.dy));
+                        let ol = [o.x / sx, o.y / sy, o.z - f64::from(scale.z_offset)];
+                        let dl = [d.x / sx, d.y / sy, d.z];
+                        let (dw, dh) = (dhf.width(), dhf.height());
+                        let tw = water_surface_hit(ws, dw, dh, ol, dl, f64::from(depth));
+                        if let Some(tw) = tw.filter(|&tw| (tw as f32) < depth) {
+                            (c, depth, normal) = under_water(c, depth, tw as f32, &shading);
+                        }
+                    } else if let Some(level) = water {
                         // The water plane, inside the terrain's extent, in front of the hit.
                         let (o, d) = (o.as_dvec3(), d.as_dvec3());
                         let level = f64::from(level);
@@ -638,16 +681,7 @@ pub(crate) fn render_cpu(
                             let inside =
                                 p.x >= 0.0 && p.y >= 0.0 && p.x <= extent.0 && p.y <= extent.1;
                             if inside && (tw as f32) < depth {
-                                let below = if depth.is_finite() {
-                                    ((depth - tw as f32) * 0.002).min(1.0)
-                                } else {
-                                    0.0
-                                };
-                                let wc = shading.water_color;
-                                c = c.lerp(wc, 0.5).lerp(wc * 0.6, below);
-                                depth = tw as f32;
-                                // As shaders/raycast.wgsl: the water plane faces up.
-                                normal = [0.0, 0.0, 1.0];
+                                (c, depth, normal) = under_water(c, depth, tw as f32, &shading);
                             }
                         }
                     }
@@ -803,9 +837,6 @@ pub fn run(a: &RenderArgs) -> CliResult {
     if a.normals_out.is_some() && !effects.contains(&Effect::NormalOutput) {
         return Err(CliError("--normals-out needs --effects normals".into()));
     }
-    if a.water_surface.is_some() && a.backend == Backend::Cpu {
-        return Err(CliError("--water-surface needs --backend gpu".into()));
-    }
     let (w, h) = a.size;
     let camera = Camera::new(a.eye, a.target, a.fov, w, h)?;
     let (dem, _) = a.dem.load()?;
@@ -821,7 +852,12 @@ pub fn run(a: &RenderArgs) -> CliResult {
             if a.method == RenderMethod::Silhouette {
                 render_cpu_silhouette(&hf, &camera, &effects)?
             } else {
-                render_cpu(&hf, &camera, a.method == RenderMethod::March, &effects)?
+                let water = match &a.water_surface {
+                    Some(path) => Some(read_water_surface(path, &hf)?),
+                    None => None,
+                };
+                let march = a.method == RenderMethod::March;
+                render_cpu(&hf, &camera, march, &effects, water.as_deref())?
             }
         }
     };

@@ -122,7 +122,7 @@ pub fn effects(ctx: &Ctx<'_>) -> CliResult<Section> {
             for _ in 0..rounds.min(5) {
                 for (k, (_, fx)) in scenes.iter().enumerate() {
                     let t0 = Instant::now();
-                    let r = render_cpu(&hf, &cam, false, fx)?;
+                    let r = render_cpu(&hf, &cam, false, fx, None)?;
                     times[k].push(t0.elapsed().as_secs_f64() * 1e3);
                     passes[k] = r
                         .passes
