@@ -17,8 +17,9 @@
 //!   without deciding them when the bound settles them (same triangles, same order);
 //! - *pair*: the stack walk deciding both children of a split before pushing them, so that a
 //!   popped entry's kind was decided long before (on its own records in `f32` and in `f64`,
-//!   and on the library's records; the same triangles in the same order as the stack walk on
-//!   the same data);
+//!   and on the library's records in `f32` and in `f64`; the same triangles in the same order
+//!   as the stack walk on the same data, and in `f64` on the library's records exactly
+//!   `grid_triangles`' list);
 //! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
 //!   records, and `Refiner::triangles` (compact vertices, renumbered) for reference.
 //!
@@ -66,6 +67,8 @@ const LIB: u8 = 2;
 /// [`OWN_F32`] with the lookahead of `vd_lookahead`: a split whose children the per-triangle
 /// bound in the record's fourth slot settles writes them as leaves without deciding them.
 const OWN_LOOK: u8 = 3;
+/// [`LIB`] with the decision in `f64`, as the library makes it.
+const LIB_F64: u8 = 4;
 
 /// Stack entry kinds of [`Frame::dfs_pair`].
 const CULLED: u32 = 0;
@@ -97,9 +100,12 @@ impl Frame<'_> {
     fn decide_in<const SRC: u8>(&self, m: u32, planes: u32, level: u32) -> Option<(bool, u32)> {
         let (x, y) = xy(m);
         let i = self.index(m) as usize;
-        if SRC == LIB {
+        if SRC == LIB || SRC == LIB_F64 {
             let r = self.lib[i];
             let erz = (r.error_value(), r.radius_value(), r.z);
+            if SRC == LIB_F64 {
+                return self.v.decide(&self.v.f64s, (x, y, level), erz, planes);
+            }
             return self.v.decide(&self.v.f32s, (x, y, level), erz, planes);
         }
         let [e, rr, pz, _] = self.rec[i];
@@ -446,6 +452,7 @@ fn main() {
     let mut out_pair = vec![[0u32; 3]; bound + 1];
     let mut out_pair_lib = vec![[0u32; 3]; bound + 1];
     let mut out_pair64 = vec![[0u32; 3]; bound + 1];
+    let mut out_pair_lib64 = vec![[0u32; 3]; bound + 1];
     let mut tris_g = [
         vec![[0u32; 3]; bound],
         vec![[0u32; 3]; bound],
@@ -519,6 +526,14 @@ fn main() {
         );
         let nl1 = f.dfs_stack::<LIB>(roots, &mut out2);
         let lib_ref = out2[..nl1].to_vec();
+        // In `f64` on the library's records the yardstick decides as the library does.
+        let nl64 = f.dfs_pair::<LIB_F64>(roots, &mut out2);
+        let nlg = rl.grid_triangles(&mut out_lib).unwrap();
+        assert_eq!(
+            &out2[..nl64],
+            &out_lib[..nlg],
+            "pair f64 differs from grid_triangles"
+        );
         let nl2 = f.dfs_pair::<LIB>(roots, &mut out2);
         assert_eq!(
             &out2[..nl2],
@@ -557,6 +572,10 @@ fn main() {
             (
                 "pair, f64 decisions",
                 Box::new(|| f.dfs_pair::<OWN_F64>(roots, &mut out_pair64)),
+            ),
+            (
+                "pair, library records, f64",
+                Box::new(|| f.dfs_pair::<LIB_F64>(roots, &mut out_pair_lib64)),
             ),
             (
                 "pair, library records",
