@@ -161,7 +161,8 @@ pub const WATER_REFINE: u32 = 8;
 /// and to `t <= t_end` (the terrain's hit), then sampled at [`WATER_STEPS`] + 1 evenly spaced
 /// points; the first sample below the water is refined by [`WATER_REFINE`] bisections with
 /// the sample before it (seed 003's linear + binary search). `None` as well for a grid
-/// smaller than 2 x 2, a `water` of another size, or no finite `t_end` and no exit.
+/// smaller than 2 x 2, a `water` of another size, or a clipped ray without a finite end (a
+/// vertical ray with an infinite `t_end`).
 ///
 /// ```
 /// use relief_wgpu::raycast::water_surface_hit;
