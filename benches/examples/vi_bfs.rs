@@ -1,0 +1,453 @@
+//! A yardstick for view-independent extraction (issue 3), not library code: the traversal of
+//! `Refiner::triangles_popcnt` on a square grid (the kept-vertex bitmap with its rank prefix,
+//! vertices packed with their ranks, the two finest levels without a branch) written three
+//! ways over the same bitmap:
+//! - *depth first*: the library's recursion up to commit b8a05d6, re-written here;
+//! - *blocks*: depth first down to subtrees `B` levels above the leaves, then each subtree
+//!   level by level, with no data-dependent branch: every triangle of a level is written to
+//!   the output and counted only when its split vertex is not kept, and its two children are
+//!   written to the next level and counted only when it is (the library's traversal since,
+//!   with `B = 10`);
+//! - *by vertex*: no traversal at all: each kept vertex is the apex of up to four triangles of
+//!   its diamond, each in the mesh when its own split vertex is not kept (`Vi::by_vertex`).
+//!
+//! All three give the library's triangles (asserted on each case; at `B = 10` the blocks also
+//! in the library's order). Timed: each alone over the same bitmap, fastest of `RUNS`, bitmap
+//! and output warm; the library's whole `triangles_popcnt` (selection and vertices included)
+//! for scale; and writing the same number of triangles with nothing else, the floor of any
+//! extraction into that buffer. Bundled Puget Sound DEM, E = 1, 5, 20 and 50 m.
+//!
+//! `cargo run --release -p relief-benches --example vi_bfs` (`RUNS=n`, `BLOCK=b` from 1 to 13,
+//! default 10; `ONLY=e` one threshold)
+
+use relief_core::refine::{
+    hierarchy_len, preprocess, scratch_len, triangle_bound, Criterion, Refiner,
+};
+use relief_core::Heightfield;
+use std::hint::black_box;
+use std::time::Instant;
+
+mod common;
+
+const IDX: u64 = 0xffff_ffff;
+
+/// The traversal state, as the library's `ViSquare` holds it (the output inside, so that the
+/// recursion passes no more than the library's does).
+struct Vi<'a, 'o> {
+    bits: &'a [u64],
+    prefix: &'a [u64],
+    side: u64,
+    o: Out<'o>,
+}
+
+struct Out<'o> {
+    out: &'o mut [[u32; 3]],
+    n: usize,
+}
+
+impl Out<'_> {
+    #[inline(always)]
+    fn put(&mut self, t: [u32; 3]) {
+        if let Some(o) = self.out.get_mut(self.n) {
+            *o = t;
+        }
+        self.n += 1;
+    }
+    /// Writes `t` and counts it when `count` is 1.
+    #[inline(always)]
+    fn put_if(&mut self, t: [u32; 3], count: usize) {
+        if let Some(o) = self.out.get_mut(self.n) {
+            *o = t;
+        }
+        self.n += count;
+    }
+}
+
+#[inline(always)]
+fn tri(a: u64, b: u64, c: u64) -> [u32; 3] {
+    [(a >> 32) as u32, (b >> 32) as u32, (c >> 32) as u32]
+}
+
+#[inline(always)]
+fn mid(l: u64, r: u64) -> u64 {
+    ((l & IDX) + (r & IDX)) >> 1
+}
+
+impl Vi<'_, '_> {
+    #[inline(always)]
+    fn word(&self, i: u64) -> u64 {
+        self.bits.get((i >> 6) as usize).copied().unwrap_or(0)
+    }
+    #[inline(always)]
+    fn pack(&self, i: u64, word: u64) -> u64 {
+        let below = word & ((1u64 << (i & 63)) - 1);
+        let r =
+            self.prefix.get((i >> 6) as usize).copied().unwrap_or(0) + below.count_ones() as u64;
+        (i & IDX) | (r << 32)
+    }
+    #[inline(always)]
+    fn vertex(&self, i: u64) -> u64 {
+        self.pack(i, self.word(i))
+    }
+    #[inline(always)]
+    fn split(&self, l: u64, r: u64) -> Option<u64> {
+        let im = mid(l, r);
+        let word = self.word(im);
+        if (word >> (im & 63)) & 1 == 0 {
+            return None;
+        }
+        Some(self.pack(im, word))
+    }
+    fn roots(&self) -> [(u64, u64, u64); 2] {
+        let (n, w) = (self.side, self.side + 1);
+        let (c00, c10, c01, c11) = (
+            self.vertex(0),
+            self.vertex(n),
+            self.vertex(n * w),
+            self.vertex(n * w + n),
+        );
+        [(c11, c00, c10), (c00, c11, c01)]
+    }
+
+    /// The library's `ViSquare::last`: triangle `(l, r, a)` one level above the leaves.
+    #[inline(always)]
+    fn last(&mut self, l: u64, r: u64, a: u64) {
+        let im = mid(l, r);
+        let word = self.word(im);
+        let kept = (word >> (im & 63)) & 1;
+        let m = self.pack(im, word);
+        let keep = kept.wrapping_neg();
+        let pick = |x: u64, y: u64| ((x & keep) | (y & !keep)) >> 32;
+        let first = [pick(a, l) as u32, pick(l, r) as u32, pick(m, a) as u32];
+        self.o.put_if(first, 1);
+        self.o.put_if(tri(r, a, m), kept as usize);
+    }
+
+    /// The library's recursion (`vi_square_walk!`).
+    #[target_feature(enable = "popcnt")]
+    fn dfs(&mut self, l: u64, r: u64, a: u64, depth: u32) {
+        let m = match self.split(l, r) {
+            Some(m) if depth > 0 => m,
+            _ => return self.o.put(tri(l, r, a)),
+        };
+        match depth {
+            1 => {
+                self.o.put(tri(a, l, m));
+                self.o.put(tri(r, a, m));
+            }
+            2 => {
+                self.last(a, l, m);
+                self.last(r, a, m);
+            }
+            _ => {
+                self.dfs(a, l, m, depth - 1);
+                self.dfs(r, a, m, depth - 1);
+            }
+        }
+    }
+
+    /// Depth first down to `block` levels above the leaves, then [`Self::levels`].
+    #[target_feature(enable = "popcnt")]
+    fn blocks(&mut self, buf: &mut Bufs, t: (u64, u64, u64), depth: u32, block: u32) {
+        if depth <= block {
+            return self.levels(buf, t, depth);
+        }
+        let (l, r, a) = t;
+        let Some(m) = self.split(l, r) else {
+            return self.o.put(tri(l, r, a));
+        };
+        self.blocks(buf, (a, l, m), depth - 1, block);
+        self.blocks(buf, (r, a, m), depth - 1, block);
+    }
+
+    /// The subtree of `t` level by level, no data-dependent branch.
+    #[target_feature(enable = "popcnt")]
+    fn levels(&mut self, buf: &mut Bufs, t: (u64, u64, u64), depth: u32) {
+        let (mut cur, mut next) = (&mut buf.a, &mut buf.b);
+        cur[0] = [t.0, t.1, t.2];
+        let mut nc = 1usize;
+        let mut d = depth;
+        while d >= 2 {
+            let mut nn = 0usize;
+            for k in 0..nc {
+                let [l, r, a] = cur[k & MASK];
+                let im = mid(l, r);
+                let word = self.word(im);
+                let kept = ((word >> (im & 63)) & 1) as usize;
+                let m = self.pack(im, word);
+                self.o.put_if(tri(l, r, a), 1 - kept);
+                next[nn & MASK] = [a, l, m];
+                next[(nn + 1) & MASK] = [r, a, m];
+                nn += 2 * kept;
+            }
+            core::mem::swap(&mut cur, &mut next);
+            nc = nn;
+            d -= 1;
+        }
+        if d == 1 {
+            for &[l, r, a] in &cur[..nc.min(CAP)] {
+                self.last(l, r, a);
+            }
+        } else {
+            // A leaf cell (depth 0).
+            for &[l, r, a] in &cur[..nc.min(CAP)] {
+                self.o.put(tri(l, r, a));
+            }
+        }
+    }
+}
+
+impl Vi<'_, '_> {
+    /// Whether vertex `i` is kept.
+    #[inline(always)]
+    fn kept(&self, i: u64) -> u64 {
+        (self.word(i) >> (i & 63)) & 1
+    }
+
+    /// The rank (vertex number) of grid index `i`.
+    #[inline(always)]
+    fn rank(&self, i: u64) -> u32 {
+        (self.pack(i, self.word(i)) >> 32) as u32
+    }
+
+    /// The mesh by kept vertex, no traversal: every kept vertex `v` other than the corner
+    /// `(0, 0)` is the apex of the (up to) four triangles its diamond splits into, `(D_k,
+    /// D_k+1, v)` for the diamond's corners `D_0..D_3` counter-clockwise (a centre of a square
+    /// of side `2h`: `v + h (+-1, +-1)`; a side's midpoint: `v + h (+-1, 0), (0, +-1)`, where `h`
+    /// is the lowest set bit of `x | y`); each is in the mesh when its own split vertex, the
+    /// midpoint of `D_k D_k+1`, is not kept (or it is a leaf, a side's midpoint with `h = 1`).
+    /// The kept set is closed under the hierarchy (nested errors), so every such triangle's
+    /// ancestors split. The corners `(n, 0)` and `(0, n)` act as the apexes of the two roots.
+    #[target_feature(enable = "popcnt")]
+    fn by_vertex(&mut self) {
+        let n = self.side as i64;
+        let w = n + 1;
+        let (mut y, mut row) = (0i64, 0i64);
+        // Diamond corners as grid-index offsets for h = 1: a side's midpoint, a centre.
+        let be = [1, w, -1, -w];
+        let bc = [1 + w, w - 1, -1 - w, 1 - w];
+        for (wi, &word) in self.bits.iter().enumerate() {
+            let mut b = word;
+            while b != 0 {
+                let i = (wi as i64) * 64 + i64::from(b.trailing_zeros());
+                b &= b - 1;
+                while i >= row + w {
+                    y += 1;
+                    row += w;
+                }
+                let x = i - row;
+                let xy = x | y;
+                let h = xy & xy.wrapping_neg();
+                if h == 0 {
+                    continue;
+                }
+                if x == 0 || y == 0 || x == n || y == n {
+                    self.vertex_edge(i, x, y);
+                    continue;
+                }
+                // Inside: every diamond corner is in the grid. `c`: 1 for the centre of a
+                // square, 0 for the midpoint of a side; `h = 2^tz`.
+                let tz = xy.trailing_zeros();
+                let c = ((x >> tz) & (y >> tz) & 1) as usize;
+                let base = if c == 1 { &bc } else { &be };
+                let iu = i as u64;
+                let mut off = [0i64; 4];
+                let mut rk = [0u32; 4];
+                for k in 0..4 {
+                    off[k] = base[k] << tz;
+                    rk[k] = self.rank((i + off[k]) as u64);
+                }
+                let rv = self.rank(iu);
+                let leaf = ((c == 0) & (tz == 0)) as u64;
+                for k in 0..4 {
+                    let k1 = (k + 1) & 3;
+                    let split = (i + ((off[k] + off[k1]) >> 1)) as u64;
+                    let emit = leaf | (self.kept(split) ^ 1);
+                    self.o.put_if([rk[k], rk[k1], rv], emit as usize);
+                }
+            }
+        }
+    }
+
+    /// [`Self::by_vertex`] for a vertex on the grid's edge.
+    #[inline(never)]
+    fn vertex_edge(&mut self, i: i64, x: i64, y: i64) {
+        let n = self.side as i64;
+        let w = n + 1;
+        let xy = x | y;
+        let h = xy & xy.wrapping_neg();
+        // 1 for the centre of a square, 0 for the midpoint of a side.
+        let c = (((x & h) != 0) & ((y & h) != 0)) as i64;
+        let e = [(h, 0), (0, h), (-h, 0), (0, -h)];
+        let leaf = ((1 - c) & (h == 1) as i64) as u64;
+        let mut inside = [0u64; 4];
+        let mut idx = [0u64; 4];
+        let mut rk = [0u32; 4];
+        for k in 0..4 {
+            let k1 = (k + 1) & 3;
+            let (px, py) = (x + e[k].0 + c * e[k1].0, y + e[k].1 + c * e[k1].1);
+            inside[k] = ((px as u64 <= n as u64) & (py as u64 <= n as u64)) as u64;
+            idx[k] = (py * w + px) as u64;
+            rk[k] = self.rank(idx[k]);
+        }
+        let rv = self.rank(i as u64);
+        for k in 0..4 {
+            let k1 = (k + 1) & 3;
+            let split = (idx[k] + idx[k1]) >> 1;
+            let emit = inside[k] & inside[k1] & (leaf | (self.kept(split) ^ 1));
+            self.o.put_if([rk[k], rk[k1], rv], emit as usize);
+        }
+    }
+}
+
+/// Entries a level buffer holds: blocks of up to 13 levels.
+const CAP: usize = 1 << 12;
+const MASK: usize = CAP - 1;
+
+struct Bufs {
+    a: Box<[[u64; 3]; CAP]>,
+    b: Box<[[u64; 3]; CAP]>,
+}
+
+fn main() {
+    assert!(std::is_x86_feature_detected!("popcnt"));
+    let runs = common::runs(30);
+    let block: u32 = std::env::var("BLOCK")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(10);
+    let dem = common::puget();
+    let (w, h) = (dem.width, dem.height);
+    let hf = Heightfield::with_scale(&dem.samples, w, h, dem.scale).unwrap();
+    let n = hierarchy_len(w, h);
+    let (mut ef, mut rf) = (vec![0.0f32; n], vec![0.0f32; n]);
+    // The errors a second time, for the bitmap (the hierarchy borrows the first copy).
+    let (mut errs, mut rads) = (vec![0.0f32; n], vec![0.0f32; n]);
+    preprocess(&hf, &mut errs, &mut rads).unwrap();
+    let full = preprocess(&hf, &mut ef, &mut rf).unwrap();
+    let mut scratch = vec![0u64; scratch_len(w, h)];
+    let mut verts = vec![[0.0f32; 3]; n];
+    let mut tris = vec![[0u32; 3]; triangle_bound(w, h)];
+    let side = (w - 1) as u64;
+    let levels = 2 * side.trailing_zeros();
+    let words = n.div_ceil(64);
+    assert!((1..=13).contains(&block), "BLOCK must be 1..=13");
+    let mut bufs = Bufs {
+        a: Box::new([[0; 3]; CAP]),
+        b: Box::new([[0; 3]; CAP]),
+    };
+    println!("Puget {w}x{h}, block {block}, fastest of {runs}, ms");
+    println!("| E (m) | triangles | library `triangles_popcnt` (whole) | depth first | blocks | depth first / blocks | by vertex | writes only |");
+    println!("|---|---|---|---|---|---|---|---|");
+    // ONLY=e: that threshold alone.
+    let only: Option<f32> = std::env::var("ONLY").ok().and_then(|v| v.parse().ok());
+    for e in [1.0f32, 5.0, 20.0, 50.0] {
+        if only.is_some_and(|o| o != e) {
+            continue;
+        }
+        let r = Refiner::new(&full, &hf, Criterion::MaxError(e)).unwrap();
+        let mut lib = f64::INFINITY;
+        let mut c = Default::default();
+        for _ in 0..runs {
+            let s = Instant::now();
+            // SAFETY: popcnt checked above.
+            c = black_box(unsafe { r.triangles_popcnt(&mut scratch, &mut verts, &mut tris) })
+                .unwrap();
+            lib = lib.min(s.elapsed().as_secs_f64() * 1e3);
+        }
+        let nt = c.triangles;
+        // The kept set: the corners and every vertex whose error exceeds E.
+        let mut bits = vec![0u64; words];
+        for (i, &err) in errs.iter().enumerate() {
+            let (x, y) = (i % w as usize, i / w as usize);
+            let corner = (x == 0 || x == w as usize - 1) && (y == 0 || y == h as usize - 1);
+            if err > e || corner {
+                bits[i >> 6] |= 1 << (i & 63);
+            }
+        }
+        let mut prefix = vec![0u64; words];
+        let mut acc = 0u64;
+        for (p, b) in prefix.iter_mut().zip(&bits) {
+            *p = acc;
+            acc += b.count_ones() as u64;
+        }
+        assert_eq!(
+            acc as usize, c.vertices,
+            "kept set differs from the library's"
+        );
+        let (bits, prefix) = (&bits[..], &prefix[..]);
+        fn make<'a, 'o>(
+            bits: &'a [u64],
+            prefix: &'a [u64],
+            side: u64,
+            o: &'o mut [[u32; 3]],
+        ) -> Vi<'a, 'o> {
+            Vi {
+                bits,
+                prefix,
+                side,
+                o: Out { out: o, n: 0 },
+            }
+        }
+        let mut want = tris[..nt].to_vec();
+        let mut o1 = vec![[0u32; 3]; nt + 2];
+        let mut o2 = vec![[0u32; 3]; nt + 2];
+        let mut o3 = vec![[0u32; 3]; nt + 2];
+        let run_dfs = |o: &mut [[u32; 3]]| {
+            let mut vi = make(bits, prefix, side, o);
+            for (l, r, a) in vi.roots() {
+                // SAFETY: popcnt checked above.
+                unsafe { vi.dfs(l, r, a, levels) };
+            }
+            vi.o.n
+        };
+        let mut run_blocks = |o: &mut [[u32; 3]]| {
+            let mut vi = make(bits, prefix, side, o);
+            for t in vi.roots() {
+                // SAFETY: popcnt checked above.
+                unsafe { vi.blocks(&mut bufs, t, levels, block) };
+            }
+            vi.o.n
+        };
+        let run_vertex = |o: &mut [[u32; 3]]| {
+            let mut vi = make(bits, prefix, side, o);
+            // SAFETY: popcnt checked above.
+            unsafe { vi.by_vertex() };
+            vi.o.n
+        };
+        assert_eq!(run_dfs(&mut o1), nt);
+        assert!(o1[..nt] == want[..], "depth first differs from the library");
+        want.sort_unstable();
+        assert_eq!(run_blocks(&mut o2), nt);
+        let mut got = o2[..nt].to_vec();
+        got.sort_unstable();
+        assert!(got == want, "blocks give other triangles");
+        assert_eq!(run_vertex(&mut o3), nt);
+        let mut got3 = o3[..nt].to_vec();
+        got3.sort_unstable();
+        assert!(got3 == want, "by vertex gives other triangles");
+        let (mut td, mut tb, mut tf, mut tv) =
+            (f64::INFINITY, f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        for _ in 0..runs {
+            let s = Instant::now();
+            black_box(run_dfs(&mut o1));
+            td = td.min(s.elapsed().as_secs_f64() * 1e3);
+            let s = Instant::now();
+            black_box(run_blocks(&mut o2));
+            tb = tb.min(s.elapsed().as_secs_f64() * 1e3);
+            let s = Instant::now();
+            black_box(run_vertex(&mut o3));
+            tv = tv.min(s.elapsed().as_secs_f64() * 1e3);
+            let s = Instant::now();
+            for (k, t) in o2[..nt].iter_mut().enumerate() {
+                *t = [k as u32; 3];
+            }
+            black_box(&mut o2);
+            tf = tf.min(s.elapsed().as_secs_f64() * 1e3);
+        }
+        println!(
+            "| {e} | {nt} | {lib:.3} | {td:.3} | {tb:.3} | {:.2} | {tv:.3} | {tf:.3} |",
+            td / tb
+        );
+    }
+}
