@@ -48,10 +48,7 @@ struct Out<'o> {
 impl Out<'_> {
     #[inline(always)]
     fn put(&mut self, t: [u32; 3]) {
-        if let Some(o) = self.out.get_mut(self.n) {
-            *o = t;
-        }
-        self.n += 1;
+        self.put_if(t, 1);
     }
     /// Writes `t` and counts it when `count` is 1.
     #[inline(always)]
@@ -184,15 +181,9 @@ impl Vi<'_, '_> {
             nc = nn;
             d -= 1;
         }
-        if d == 1 {
-            for &[l, r, a] in &cur[..nc.min(CAP)] {
-                self.last(l, r, a);
-            }
-        } else {
-            // A leaf cell (depth 0).
-            for &[l, r, a] in &cur[..nc.min(CAP)] {
-                self.o.put(tri(l, r, a));
-            }
+        // `depth >= 1` (a block is at least one level), so the loop leaves `d == 1`.
+        for &[l, r, a] in &cur[..nc.min(CAP)] {
+            self.last(l, r, a);
         }
     }
 }
