@@ -4,7 +4,8 @@
 //!
 //! - `rays_traversal/*`: the run-length DDA (yielding whole runs) against the cell DDA (yielding
 //!   cells) over the same 256 lines in uniformly spread orientations across a 1024 x 1024 grid,
-//!   and by run length (slopes `1 / L`).
+//!   and by run length (slopes `1 / L`), both walked by `for_each` (the DDAs' own `fold`); the
+//!   `*-next` rows walk them by `for` loops calling `next`.
 //! - `rays_trace_*`: full tracing of camera rays on the bundled Puget Sound DEM (1025 x 1025,
 //!   160 m spacing, z 0.1), one thread, triangles surface: cell DDA, run DDA (whole-run
 //!   rejection), max-mip; for a camera view and a grazing view.
@@ -110,13 +111,37 @@ fn orientation_rays(n: usize) -> Vec<(DVec2, DVec2)> {
         .collect()
 }
 
-/// Not inlined (nor `walk_runs`): every traversal row times the same machine code of each side.
+/// Both DDAs by internal iteration (`for_each`, which runs their `Iterator::fold`: the loops
+/// that test only the row). Not inlined (nor `walk_runs`): every traversal row times the same
+/// machine code of each side.
 /// Inlined into each timing closure, the cell DDA's loop landed at different offsets in its
 /// 64-byte line and ran at 0.6-0.75 or 1.0-1.15 ns/cell depending on the closure (see
 /// BENCHMARKS.md, Rays); build with `RUSTFLAGS="-C llvm-args=-align-loops=64"` to pin the
 /// loops' alignment as well.
 #[inline(never)]
 fn walk_cells(lines: &[GridLine]) -> u64 {
+    let mut acc = 0u64;
+    for l in lines {
+        l.cells()
+            .for_each(|[x, y]| acc = acc.wrapping_add((x ^ y) as u64));
+    }
+    acc
+}
+
+#[inline(never)]
+fn walk_runs(lines: &[GridLine]) -> u64 {
+    let mut acc = 0u64;
+    for l in lines {
+        l.runs()
+            .for_each(|r| acc = acc.wrapping_add((r.start[0] ^ r.start[1]) as u64 + r.len as u64));
+    }
+    acc
+}
+
+/// The cell DDA by external iteration (a `for` loop calling `next`), as `walk_cells` was
+/// written before the DDAs had their own `fold`.
+#[inline(never)]
+fn walk_cells_next(lines: &[GridLine]) -> u64 {
     let mut acc = 0u64;
     for l in lines {
         for [x, y] in l.cells() {
@@ -126,8 +151,9 @@ fn walk_cells(lines: &[GridLine]) -> u64 {
     acc
 }
 
+/// The run DDA by external iteration, as `walk_cells_next`.
 #[inline(never)]
-fn walk_runs(lines: &[GridLine]) -> u64 {
+fn walk_runs_next(lines: &[GridLine]) -> u64 {
     let mut acc = 0u64;
     for l in lines {
         for r in l.runs() {
@@ -147,6 +173,12 @@ fn traversal(c: &mut Criterion) {
     });
     g.bench_function("all_orientations/run-dda", |b| {
         b.iter(|| walk_runs(black_box(&lines)))
+    });
+    g.bench_function("all_orientations/cell-dda-next", |b| {
+        b.iter(|| walk_cells_next(black_box(&lines)))
+    });
+    g.bench_function("all_orientations/run-dda-next", |b| {
+        b.iter(|| walk_runs_next(black_box(&lines)))
     });
     for len in [1.1f64, 2.0, 4.0, 8.0, 25.0, 100.0] {
         let lines = slope_lines(len + 0.013);
@@ -269,21 +301,32 @@ fn table() {
     tracing_table();
 }
 
+/// One traversal row: `rep` passes of `fa` (A) and `fb` (B) interleaved over 31 rounds, fastest
+/// round of each, per cell of one pass.
+fn traversal_row(label: &str, cells: u64, fa: impl Fn() -> u64, fb: impl Fn() -> u64) {
+    let rep = 100;
+    let (a, b, r) = interleaved(
+        31,
+        || (0..rep).map(|_| fa()).sum(),
+        || (0..rep).map(|_| fb()).sum(),
+    );
+    let per = (rep as u64 * cells) as f64;
+    println!(
+        "| traversal, {label} | {:.2} ns/cell | {:.2} ns/cell | {r:.2} |",
+        a / per * 1e9,
+        b / per * 1e9
+    );
+}
+
 /// Run DDA against cell DDA traversal rows of the table.
 fn traversal_table() {
     let lines = orientation_lines(256);
     let cells: u64 = lines.iter().map(|l| l.cells().count() as u64).sum();
-    let rep = 100;
-    let (a, b, r) = interleaved(
-        31,
-        || (0..rep).map(|_| walk_cells(black_box(&lines))).sum(),
-        || (0..rep).map(|_| walk_runs(black_box(&lines))).sum(),
-    );
-    let per = (rep as u64 * cells) as f64;
-    println!(
-        "| traversal, 256 orientations ({cells} cells): cell DDA (A) vs run DDA (B) | {:.2} ns/cell | {:.2} ns/cell | {r:.2} |",
-        a / per * 1e9,
-        b / per * 1e9
+    traversal_row(
+        &format!("256 orientations ({cells} cells), internal iteration (`for_each`): cell DDA (A) vs run DDA (B)"),
+        cells,
+        || walk_cells(black_box(&lines)),
+        || walk_runs(black_box(&lines)),
     );
     // The same comparison timed in short pieces (16 lines x 10 passes, about 0.1 ms), fastest
     // of 15 per piece, summed: robust against preemption on a loaded machine.
@@ -308,32 +351,29 @@ fn traversal_table() {
         a / per * 1e9,
         b / per * 1e9
     );
-    let frays = orientation_rays(256);
-    let (a, b, r) = interleaved(
-        31,
-        || (0..rep).map(|_| walk_float_aw(black_box(&frays))).sum(),
-        || (0..rep).map(|_| walk_runs(black_box(&lines))).sum(),
+    assert_eq!(walk_cells_next(&lines), walk_cells(&lines));
+    assert_eq!(walk_runs_next(&lines), walk_runs(&lines));
+    traversal_row(
+        "256 orientations, external iteration (`for` loops calling `next`): cell DDA (A) vs run DDA (B)",
+        cells,
+        || walk_cells_next(black_box(&lines)),
+        || walk_runs_next(black_box(&lines)),
     );
-    // `rep` passes over the lines (the chunked row above timed 10).
-    let per = (rep as u64 * cells) as f64;
-    println!(
-        "| traversal, 256 orientations: textbook f64 Amanatides & Woo (A, bench-only) vs run DDA (B) | {:.2} ns/cell | {:.2} ns/cell | {r:.2} |",
-        a / per * 1e9,
-        b / per * 1e9
+    let frays = orientation_rays(256);
+    traversal_row(
+        "256 orientations: textbook f64 Amanatides & Woo (A, bench-only) vs run DDA (B)",
+        cells,
+        || walk_float_aw(black_box(&frays)),
+        || walk_runs(black_box(&lines)),
     );
     for len in [1.1f64, 2.0, 4.0, 8.0, 25.0, 100.0] {
         let lines = slope_lines(len + 0.013);
         let cells: u64 = lines.iter().map(|l| l.cells().count() as u64).sum();
-        let (a, b, r) = interleaved(
-            31,
-            || (0..rep).map(|_| walk_cells(black_box(&lines))).sum(),
-            || (0..rep).map(|_| walk_runs(black_box(&lines))).sum(),
-        );
-        let per = (rep as u64 * cells) as f64;
-        println!(
-            "| traversal, run length {len}: cell DDA (A) vs run DDA (B) | {:.2} ns/cell | {:.2} ns/cell | {r:.2} |",
-            a / per * 1e9,
-            b / per * 1e9
+        traversal_row(
+            &format!("run length {len}: cell DDA (A) vs run DDA (B)"),
+            cells,
+            || walk_cells(black_box(&lines)),
+            || walk_runs(black_box(&lines)),
         );
     }
 }

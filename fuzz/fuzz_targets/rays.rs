@@ -41,6 +41,20 @@ fuzz_target!(|data: &[u8]| {
         let from_runs: Vec<[u32; 2]> = line.runs().flat_map(|r| r.cells()).take(10_000).collect();
         assert_eq!(cells, from_runs);
         assert!(cells.len() as u64 <= line.step_bound());
+        // Internal iteration (`fold`) walks the same cells and runs.
+        if cells.len() < 10_000 {
+            let folded = line.cells().fold(Vec::new(), |mut o, c| {
+                o.push(c);
+                o
+            });
+            assert_eq!(cells, folded);
+            let runs: Vec<_> = line.runs().collect();
+            let folded = line.runs().fold(Vec::new(), |mut o, r| {
+                o.push(r);
+                o
+            });
+            assert_eq!(runs, folded);
+        }
     }
 
     let samples: Vec<f32> = (0..w * h)

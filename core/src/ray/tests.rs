@@ -89,6 +89,12 @@ proptest! {
         let from_runs: Vec<[u32; 2]> = line.runs().flat_map(|r| r.cells()).collect();
         prop_assert_eq!(&from_runs, &want);
         prop_assert!(cells.len() as u64 <= line.step_bound());
+        // Internal iteration (`fold`, the loops without a column test) gives the same cells.
+        let folded: Vec<[u32; 2]> = line.cells().fold(Vec::new(), |mut o, c| { o.push(c); o });
+        prop_assert_eq!(&folded, &want);
+        let runs: Vec<CellRun> = line.runs().collect();
+        let folded_runs: Vec<CellRun> = line.runs().fold(Vec::new(), |mut o, r| { o.push(r); o });
+        prop_assert_eq!(&folded_runs, &runs);
     }
 
     #[test]
@@ -97,6 +103,7 @@ proptest! {
         sx in 0.0f64..1.0, sy in 0.0f64..1.0,
         ang in 0.0f64..core::f64::consts::TAU,
         len in 0.0f64..500.0,
+        skip in 0.0f64..1.0,
     ) {
         let start = DVec2::new(sx * nx as f64, sy * ny as f64);
         let dir = DVec2::new(libm::cos(ang), libm::sin(ang));
@@ -106,6 +113,18 @@ proptest! {
         let from_runs: Vec<[u32; 2]> = runs.iter().flat_map(|r| r.cells()).collect();
         prop_assert_eq!(&from_runs, &cells);
         prop_assert!(!cells.is_empty());
+        // `fold` after `skip` items taken by `next`: the same sequences, in the loops without a
+        // column test.
+        let skip = (skip * cells.len() as f64) as usize;
+        let mut it = line.cells();
+        let mut folded: Vec<[u32; 2]> = it.by_ref().take(skip).collect();
+        folded = it.fold(folded, |mut o, c| { o.push(c); o });
+        prop_assert_eq!(&folded, &cells);
+        let skip = skip.min(runs.len());
+        let mut it = line.runs();
+        let mut folded: Vec<CellRun> = it.by_ref().take(skip).collect();
+        folded = it.fold(folded, |mut o, r| { o.push(r); o });
+        prop_assert_eq!(&folded, &runs);
         prop_assert!(runs.iter().all(|r| r.len >= 1));
         // 4-connected except diagonal corner steps.
         for w in cells.windows(2) {
@@ -113,6 +132,73 @@ proptest! {
             let dy = (w[1][1] as i64 - w[0][1] as i64).abs();
             prop_assert!(dx <= 1 && dy <= 1 && dx + dy >= 1);
         }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// Start, direction and stop anywhere, inside or outside the grid, the stop possibly behind
+    /// the start: `fold` (the loops bounded by `GridLine::v_end`) and `next` walk the same cells
+    /// and runs.
+    #[test]
+    fn dda_fold_matches_next_for_any_stop(
+        nx in 1u32..60, ny in 1u32..60,
+        s in prop::array::uniform2(-20.0f64..80.0),
+        d in prop::array::uniform2(-3.0f64..3.0),
+        e in prop::array::uniform2(-20.0f64..80.0),
+        coarse in any::<bool>(),
+    ) {
+        // Coarse values put starts, stops and slopes on grid lines and corners.
+        let q = |x: f64| if coarse { libm::round(x * 2.0) / 2.0 } else { x };
+        let (s, d, e) = (DVec2::new(q(s[0]), q(s[1])), DVec2::new(q(d[0]), q(d[1])), DVec2::new(q(e[0]), q(e[1])));
+        let line = GridLine::new(s, d, e, [nx, ny]).unwrap();
+        let cells: Vec<[u32; 2]> = line.cells().collect();
+        let folded: Vec<[u32; 2]> = line.cells().fold(Vec::new(), |mut o, c| { o.push(c); o });
+        prop_assert_eq!(&folded, &cells);
+        let runs: Vec<CellRun> = line.runs().collect();
+        let folded: Vec<CellRun> = line.runs().fold(Vec::new(), |mut o, r| { o.push(r); o });
+        prop_assert_eq!(&folded, &runs);
+        let from_runs: Vec<[u32; 2]> = runs.iter().flat_map(|r| r.cells()).collect();
+        prop_assert_eq!(&from_runs, &cells);
+        prop_assert!(cells.len() as u64 <= line.step_bound());
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// `GridLine::v_end` (an `f64` quotient corrected with `i128` products) equals the exact
+    /// `i128` quotient, on grids up to the largest allowed (`2^30` cells an axis), where the
+    /// line's height reaches 2^92 intercept units.
+    #[test]
+    fn dda_last_row_is_the_exact_quotient(
+        lx in 0u32..31, ly in 0u32..31,
+        s in prop::array::uniform2(0.0f64..1.0),
+        ang in 0.0f64..core::f64::consts::TAU,
+        len in prop::array::uniform2(0.0f64..1.5),
+        corners in any::<bool>(),
+    ) {
+        let (nx, ny) = (1u32 << lx, 1u32 << ly);
+        let mut start = DVec2::new(s[0] * nx as f64, s[1] * ny as f64);
+        let mut dir = DVec2::new(libm::cos(ang), libm::sin(ang));
+        if corners {
+            // Integer starts and small integer slopes: the line meets grid corners exactly,
+            // where the estimate's `f64` rounding lands on the wrong side of the quotient.
+            start = DVec2::new(libm::floor(start.x), libm::floor(start.y));
+            dir = DVec2::new(libm::round(dir.x * 7.0), libm::round(dir.y * 7.0));
+        }
+        let stop = start + DVec2::new(dir.x * len[0] * nx as f64, dir.y * len[1] * ny as f64);
+        let stop = if corners { DVec2::new(libm::floor(stop.x), libm::floor(stop.y)) } else { stop };
+        let l = GridLine::new(start, dir, stop, [nx, ny]).unwrap();
+        let want = if l.u_last < l.u0 || l.v_last < l.v0 {
+            l.v0 - 1
+        } else {
+            let h = l.b0 as i128 + (l.u_last - l.u0 + 1) as i128 * l.a as i128;
+            let top = (h - 1).div_euclid(l.q as i128).max(0) as i64;
+            l.v_last.min(l.v0 + top)
+        };
+        prop_assert_eq!(l.v_end, want);
     }
 }
 
