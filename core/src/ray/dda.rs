@@ -30,8 +30,6 @@
 //! `n` cells.
 
 use crate::Error;
-use core::convert::Infallible;
-use core::ops::ControlFlow;
 use glam::DVec2;
 
 const FRAC_BITS: u32 = 21;
@@ -365,20 +363,16 @@ impl CellDda {
         Some(out)
     }
 
-    /// Folds `f` over the remaining cells in the folded frame, in order, until it breaks: the
-    /// cells of [`CellDda::next_folded`], in a loop that tests only the row before the last one
+    /// Folds `f` over the remaining cells in the folded frame, in order: the cells of
+    /// [`CellDda::next_folded`], in a loop that tests only the row before the last one
     /// (`GridLine::v_end`).
     #[inline]
-    pub(crate) fn try_fold_folded<A, B>(
-        self,
-        init: A,
-        mut f: impl FnMut(A, (i64, i64)) -> ControlFlow<B, A>,
-    ) -> ControlFlow<B, A> {
+    fn fold_folded<A>(self, init: A, mut f: impl FnMut(A, (i64, i64)) -> A) -> A {
         let l = self.line;
         let (mut u, mut v, mut b) = (self.u, self.v, self.b);
         let mut acc = init;
         if u > l.u_last || v > l.v_last {
-            return ControlFlow::Continue(acc);
+            return acc;
         }
         // The same step as `next_folded`.
         let step = |u: &mut i64, v: &mut i64, b: &mut i64| {
@@ -394,14 +388,14 @@ impl CellDda {
             }
         };
         while v < l.v_end {
-            acc = f(acc, (u, v))?;
+            acc = f(acc, (u, v));
             step(&mut u, &mut v, &mut b);
         }
         while v == l.v_end && u <= l.u_last {
-            acc = f(acc, (u, v))?;
+            acc = f(acc, (u, v));
             step(&mut u, &mut v, &mut b);
         }
-        ControlFlow::Continue(acc)
+        acc
     }
 }
 
@@ -416,13 +410,7 @@ impl Iterator for CellDda {
     #[inline]
     fn fold<A, F: FnMut(A, [u32; 2]) -> A>(self, init: A, mut f: F) -> A {
         let line = self.line;
-        let done = self.try_fold_folded::<A, Infallible>(init, |acc, (u, v)| {
-            ControlFlow::Continue(f(acc, line.cell(u, v)))
-        });
-        match done {
-            ControlFlow::Continue(acc) => acc,
-            ControlFlow::Break(never) => match never {},
-        }
+        self.fold_folded(init, |acc, (u, v)| f(acc, line.cell(u, v)))
     }
 }
 
@@ -599,20 +587,16 @@ impl RunDda {
         Some(run)
     }
 
-    /// Folds `f` over the remaining runs in the folded frame, in order, until it breaks: the
-    /// runs of [`RunDda::next_folded`], in a loop that tests only the row and clamps only the
-    /// last run (`GridLine::v_end`).
+    /// Folds `f` over the remaining runs in the folded frame, in order: the runs of
+    /// [`RunDda::next_folded`], in a loop that tests only the row and clamps only the last run
+    /// (`GridLine::v_end`).
     #[inline]
-    pub(crate) fn try_fold_folded<A, B>(
-        mut self,
-        init: A,
-        mut f: impl FnMut(A, FoldedRun) -> ControlFlow<B, A>,
-    ) -> ControlFlow<B, A> {
+    fn fold_folded<A>(mut self, init: A, mut f: impl FnMut(A, FoldedRun) -> A) -> A {
         let mut acc = init;
         if self.first {
             match self.next_folded() {
-                Some(run) => acc = f(acc, run)?,
-                None => return ControlFlow::Continue(acc),
+                Some(run) => acc = f(acc, run),
+                None => return acc,
             }
         }
         let l = self.line;
@@ -627,7 +611,7 @@ impl RunDda {
                     u_a: u,
                     u_b: u + n - 1,
                 },
-            )?;
+            );
             v += 1;
             u = nu;
             b = nb;
@@ -641,9 +625,9 @@ impl RunDda {
                     u_a: u,
                     u_b: (u + n - 1).min(l.u_last),
                 },
-            )?;
+            );
         }
-        ControlFlow::Continue(acc)
+        acc
     }
 
     /// Unfolds a folded run.
@@ -664,13 +648,7 @@ impl Iterator for RunDda {
     #[inline]
     fn fold<A, F: FnMut(A, CellRun) -> A>(self, init: A, mut f: F) -> A {
         let line = self.line;
-        let done = self.try_fold_folded::<A, Infallible>(init, |acc, run| {
-            ControlFlow::Continue(f(acc, line.unfold_run(run)))
-        });
-        match done {
-            ControlFlow::Continue(acc) => acc,
-            ControlFlow::Break(never) => match never {},
-        }
+        self.fold_folded(init, |acc, run| f(acc, line.unfold_run(run)))
     }
 }
 
