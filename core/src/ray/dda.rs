@@ -348,19 +348,25 @@ impl CellDda {
             return None;
         }
         let out = (self.u, self.v);
-        let e = self.b + l.a;
-        // One branch per cell, on the exit face (the right face `e < q` steps u); the top face
-        // steps v, and the exact corner both, selected without a second branch.
+        Self::step(l, &mut self.u, &mut self.v, &mut self.b);
+        Some(out)
+    }
+
+    /// One cell step of `(u, v)` with intercept `b`. One branch per cell, on the exit face (the
+    /// right face `e < q` steps u); the top face steps v, and the exact corner both, selected
+    /// without a second branch.
+    #[inline(always)]
+    fn step(l: &GridLine, u: &mut i64, v: &mut i64, b: &mut i64) {
+        let e = *b + l.a;
         if e < l.q {
-            self.u += 1;
-            self.b = e;
+            *u += 1;
+            *b = e;
         } else {
             let corner = e == l.q;
-            self.v += 1;
-            self.u += i64::from(corner);
-            self.b = if corner { 0 } else { self.b - l.q };
+            *v += 1;
+            *u += i64::from(corner);
+            *b = if corner { 0 } else { *b - l.q };
         }
-        Some(out)
     }
 
     /// Folds `f` over the remaining cells in the folded frame, in order: the cells of
@@ -374,26 +380,13 @@ impl CellDda {
         if u > l.u_last || v > l.v_last {
             return acc;
         }
-        // The same step as `next_folded`.
-        let step = |u: &mut i64, v: &mut i64, b: &mut i64| {
-            let e = *b + l.a;
-            if e < l.q {
-                *u += 1;
-                *b = e;
-            } else {
-                let corner = e == l.q;
-                *v += 1;
-                *u += i64::from(corner);
-                *b = if corner { 0 } else { *b - l.q };
-            }
-        };
         while v < l.v_end {
             acc = f(acc, (u, v));
-            step(&mut u, &mut v, &mut b);
+            Self::step(&l, &mut u, &mut v, &mut b);
         }
         while v == l.v_end && u <= l.u_last {
             acc = f(acc, (u, v));
-            step(&mut u, &mut v, &mut b);
+            Self::step(&l, &mut u, &mut v, &mut b);
         }
         acc
     }
@@ -629,12 +622,6 @@ impl RunDda {
         }
         acc
     }
-
-    /// Unfolds a folded run.
-    #[inline]
-    pub(crate) fn unfold_run(&self, f: FoldedRun) -> CellRun {
-        self.line.unfold_run(f)
-    }
 }
 
 impl Iterator for RunDda {
@@ -642,7 +629,7 @@ impl Iterator for RunDda {
     #[inline]
     fn next(&mut self) -> Option<CellRun> {
         let f = self.next_folded()?;
-        Some(self.unfold_run(f))
+        Some(self.line.unfold_run(f))
     }
 
     #[inline]
@@ -829,7 +816,7 @@ impl Iterator for RunIntercepts {
             extended,
         };
         let f = self.dda.next_folded()?;
-        Some((self.dda.unfold_run(f), beta))
+        Some((self.dda.line.unfold_run(f), beta))
     }
 }
 

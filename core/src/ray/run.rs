@@ -263,7 +263,7 @@ impl<T: Terrain> RayTracer<'_, T> {
             if lr.z(ta).min(lr.z(tb)) > m as f64 {
                 continue;
             }
-            let run = runs.unfold_run(f);
+            let run = line.unfold_run(f);
             for [cx, cy] in run.cells() {
                 let Some((ca, cb)) = self.cell_interval(&lr, cx, cy) else {
                     continue;

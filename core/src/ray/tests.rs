@@ -59,6 +59,14 @@ fn reference_cells(sx: i128, sy: i128, p: i128, q: i128, nx: i128, ny: i128) -> 
     out
 }
 
+/// `out` with the items of `it` pushed through `Iterator::fold` (the DDAs' own loops).
+fn pushed<I: Iterator>(out: Vec<I::Item>, it: I) -> Vec<I::Item> {
+    it.fold(out, |mut o, x| {
+        o.push(x);
+        o
+    })
+}
+
 fn line_for(sx: i128, sy: i128, p: i128, q: i128, nx: u32, ny: u32) -> GridLine {
     let d = (1i128 << 21) as f64;
     let start = DVec2::new(sx as f64 / d, sy as f64 / d);
@@ -90,10 +98,10 @@ proptest! {
         prop_assert_eq!(&from_runs, &want);
         prop_assert!(cells.len() as u64 <= line.step_bound());
         // Internal iteration (`fold`, the loops without a column test) gives the same cells.
-        let folded: Vec<[u32; 2]> = line.cells().fold(Vec::new(), |mut o, c| { o.push(c); o });
+        let folded: Vec<[u32; 2]> = pushed(Vec::new(), line.cells());
         prop_assert_eq!(&folded, &want);
         let runs: Vec<CellRun> = line.runs().collect();
-        let folded_runs: Vec<CellRun> = line.runs().fold(Vec::new(), |mut o, r| { o.push(r); o });
+        let folded_runs: Vec<CellRun> = pushed(Vec::new(), line.runs());
         prop_assert_eq!(&folded_runs, &runs);
     }
 
@@ -118,12 +126,12 @@ proptest! {
         let skip = (skip * cells.len() as f64) as usize;
         let mut it = line.cells();
         let mut folded: Vec<[u32; 2]> = it.by_ref().take(skip).collect();
-        folded = it.fold(folded, |mut o, c| { o.push(c); o });
+        folded = pushed(folded, it);
         prop_assert_eq!(&folded, &cells);
         let skip = skip.min(runs.len());
         let mut it = line.runs();
         let mut folded: Vec<CellRun> = it.by_ref().take(skip).collect();
-        folded = it.fold(folded, |mut o, r| { o.push(r); o });
+        folded = pushed(folded, it);
         prop_assert_eq!(&folded, &runs);
         prop_assert!(runs.iter().all(|r| r.len >= 1));
         // 4-connected except diagonal corner steps.
@@ -154,10 +162,10 @@ proptest! {
         let (s, d, e) = (DVec2::new(q(s[0]), q(s[1])), DVec2::new(q(d[0]), q(d[1])), DVec2::new(q(e[0]), q(e[1])));
         let line = GridLine::new(s, d, e, [nx, ny]).unwrap();
         let cells: Vec<[u32; 2]> = line.cells().collect();
-        let folded: Vec<[u32; 2]> = line.cells().fold(Vec::new(), |mut o, c| { o.push(c); o });
+        let folded: Vec<[u32; 2]> = pushed(Vec::new(), line.cells());
         prop_assert_eq!(&folded, &cells);
         let runs: Vec<CellRun> = line.runs().collect();
-        let folded: Vec<CellRun> = line.runs().fold(Vec::new(), |mut o, r| { o.push(r); o });
+        let folded: Vec<CellRun> = pushed(Vec::new(), line.runs());
         prop_assert_eq!(&folded, &runs);
         let from_runs: Vec<[u32; 2]> = runs.iter().flat_map(|r| r.cells()).collect();
         prop_assert_eq!(&from_runs, &cells);
