@@ -342,9 +342,20 @@ pub const PACKET_LANES: usize = 8;
 /// Levels below the top where a walk starts (in the node holding the ray's clipped start):
 /// the top levels hold the highest samples and nearly every ray descends through them, so
 /// starting lower saves those steps (the walk still climbs to the top as it moves). The hits
-/// are the same from any start level; on the Puget Sound views of `benches/benches/rays.rs`
-/// 0, 2, 4, 6 and 8 took 243k, 217k, 206k, 218k and 250k steps for the camera view.
+/// are the same from any start level; on the Puget Sound camera and grazing views of
+/// `bench-peers/embree_rays.sh` (384 x 256 rays, `relief trace --json`, `steps`) 2, 3, 4, 5
+/// and 6 took 824k / 1150k, 774k / 1128k, 743k / 1143k, 760k / 1270k and 885k / 1540k steps.
 const START_DEPTH: u32 = 4;
+
+/// A ray that descends by more than `CLIMB_RELIEF` times the terrain's mean relief per cell
+/// (height range over the longer side's cells) for each cell it crosses does not climb after a
+/// skip (Tevs et al. climb whenever a skip leaves the parent). Such a ray nears the surface
+/// soon, and a climb then more often costs a descent back than it saves skips. The hits are
+/// the same either way, and so are the cells tested (a cell is tested exactly when the ray
+/// passes at or below its maximum). On the fourteen views of `bench-peers/embree_rays.sh` the
+/// rule takes 2-10% fewer steps than climbing always; 1 and 4 took more steps than 2 on the
+/// Puget views, and so did climbing several levels at once.
+pub(super) const CLIMB_RELIEF: f64 = 2.0;
 
 /// The traversal state of one ray in the pyramid.
 #[derive(Debug, Clone, Copy)]
@@ -361,6 +372,12 @@ pub(super) struct Walk {
     pub(super) dir_y: i8,
     pub(super) step_x: i64,
     pub(super) step_y: i64,
+    /// Whether the walk climbs a level when a skip crosses into another parent
+    /// ([`RayTracer::climbs`]). `mip_start` leaves it `true` and the scalar walk sets it; the
+    /// packet path computes it per step from its lanes instead, because computing it in
+    /// `mip_start`, which the packet step inlines through its lane refill, made the packets
+    /// 5-7% slower.
+    pub(super) climb: bool,
 }
 
 impl<T: Terrain> RayTracer<'_, T> {
@@ -400,7 +417,14 @@ impl<T: Terrain> RayTracer<'_, T> {
             dir_y: sign(lr.d.y),
             step_x: if lr.d.x >= 0.0 { 1 } else { -1 },
             step_y: if lr.d.y >= 0.0 { 1 } else { -1 },
+            climb: true,
         })
+    }
+
+    /// Whether a walk of `lr` climbs after a skip into another parent (see `CLIMB_RELIEF`).
+    #[inline(always)]
+    pub(super) fn climbs(&self, lr: &LocalRay) -> bool {
+        -lr.d.z <= self.climb_slope * max_f(lr.d.x.abs(), lr.d.y.abs())
     }
 
     /// One traversal step of `w`: descend into the current node, test it exactly (a cell), or
@@ -485,7 +509,7 @@ impl<T: Terrain> RayTracer<'_, T> {
         if sx < 0 || sy < 0 || sx >= lv.w || sy >= lv.h {
             return false;
         }
-        if (sx >> 1) != (ix >> 1) || (sy >> 1) != (iy >> 1) {
+        if w.climb && ((sx >> 1) != (ix >> 1) || (sy >> 1) != (iy >> 1)) {
             w.lvl += 1;
             sx >>= 1;
             sy >>= 1;
@@ -513,10 +537,7 @@ impl<T: Terrain> RayTracer<'_, T> {
     pub fn trace_maxmip(&self, ray: &Ray, mip: &MaxMip<'_>) -> Result<Trace, Error> {
         self.check_mip(mip)?;
         let mut out = Trace::default();
-        if let Some(mut w) = self.mip_start(ray, mip, &mut out) {
-            // Bounded: every step counts towards `mip.bound`, after which `mip_step` stops.
-            while self.mip_step(ray, mip, &mut w, &mut out) {}
-        }
+        self.mip_walk(ray, mip, &mut out);
         Ok(out)
     }
 
@@ -568,10 +589,17 @@ impl<T: Terrain> RayTracer<'_, T> {
     pub(super) fn each_ray(&self, rays: &[Ray], mip: &MaxMip<'_>, out: &mut [Trace]) {
         for (ray, o) in rays.iter().zip(out.iter_mut()) {
             *o = Trace::default();
-            if let Some(mut w) = self.mip_start(ray, mip, o) {
-                // Bounded: every step counts towards `mip.bound`, after which `mip_step` stops.
-                while self.mip_step(ray, mip, &mut w, o) {}
-            }
+            self.mip_walk(ray, mip, o);
+        }
+    }
+
+    /// The whole walk of one ray, into `out` (reset by the caller).
+    #[inline(always)]
+    fn mip_walk(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) {
+        if let Some(mut w) = self.mip_start(ray, mip, out) {
+            w.climb = self.climbs(&w.lr);
+            // Bounded: every step counts towards `mip.bound`, after which `mip_step` stops.
+            while self.mip_step(ray, mip, &mut w, out) {}
         }
     }
 }

@@ -243,6 +243,9 @@ pub struct RayTracer<'t, T: Terrain> {
     cells: Cells,
     spacing: DVec2,
     z_offset: f64,
+    /// Descent per cell (local height units) up to which a max-mip walk climbs after a skip:
+    /// `maxmip::CLIMB_RELIEF` times the height range over the longer side's cells.
+    climb_slope: f64,
 }
 
 impl<'t, T: Terrain> RayTracer<'t, T> {
@@ -294,17 +297,19 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
 
     fn build(terrain: &'t T, surface: Surface, lo: f64, hi: f64) -> Self {
         let s = terrain.scale();
+        let cells = Cells {
+            x: terrain.width().saturating_sub(1).max(1),
+            y: terrain.height().saturating_sub(1).max(1),
+        };
         RayTracer {
             terrain,
             surface,
             zmin: lo,
             zmax: hi,
-            cells: Cells {
-                x: terrain.width().saturating_sub(1).max(1),
-                y: terrain.height().saturating_sub(1).max(1),
-            },
+            cells,
             spacing: DVec2::new(s.dx as f64, s.dy as f64),
             z_offset: s.z_offset as f64,
+            climb_slope: maxmip::CLIMB_RELIEF * (hi - lo) / f64::from(cells.x.max(cells.y)),
         }
     }
 

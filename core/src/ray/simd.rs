@@ -141,6 +141,8 @@ struct Consts {
     bound: __m512i,
     c1023: __m512i,
     three: __m512i,
+    /// `RayTracer::climb_slope`, splat.
+    climb_slope: __m512d,
 }
 
 /// `(entry, exit)` of the slabs `[lo, hi]` per lane: `slab_signed` of `maxmip.rs`.
@@ -259,6 +261,7 @@ impl<T: Terrain> RayTracer<'_, T> {
             bound: _mm512_set1_epi64(mip.bound.min(i64::MAX as u64) as i64),
             c1023: _mm512_set1_epi64(1023),
             three: _mm512_set1_epi64(3),
+            climb_slope: _mm512_set1_pd(self.climb_slope),
         };
         // Two packs of eight lanes, stepped in turn: their pyramid loads overlap.
         let mut packs = [Pack::new(), Pack::new()];
@@ -441,8 +444,17 @@ impl<T: Terrain> RayTracer<'_, T> {
             | _mm512_cmplt_epi64_mask(sy, c.zero_i)
             | _mm512_cmpge_epi64_mask(sx, w)
             | _mm512_cmpge_epi64_mask(sy, h);
-        let up = _mm512_cmpneq_epi64_mask(_mm512_srai_epi64::<1>(sx), _mm512_srai_epi64::<1>(ix))
-            | _mm512_cmpneq_epi64_mask(_mm512_srai_epi64::<1>(sy), _mm512_srai_epi64::<1>(iy));
+        // `Walk::climb`, from the lane's direction with the scalar operations.
+        let climb = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(
+            _mm512_sub_pd(_mm512_setzero_pd(), pk.ln.dz),
+            _mm512_mul_pd(
+                c.climb_slope,
+                _mm512_max_pd(_mm512_abs_pd(pk.ln.dx), _mm512_abs_pd(pk.ln.dy)),
+            ),
+        );
+        let up = climb
+            & (_mm512_cmpneq_epi64_mask(_mm512_srai_epi64::<1>(sx), _mm512_srai_epi64::<1>(ix))
+                | _mm512_cmpneq_epi64_mask(_mm512_srai_epi64::<1>(sy), _mm512_srai_epi64::<1>(iy)));
         let sx = _mm512_mask_srai_epi64::<1>(sx, up, sx);
         let sy = _mm512_mask_srai_epi64::<1>(sy, up, sy);
         let sl = _mm512_mask_add_epi64(lvl, up, lvl, c.one);

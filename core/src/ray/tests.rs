@@ -882,6 +882,48 @@ fn maxmip_update_matches_rebuild() {
     assert!(MaxMip::update(&hf, &mut buf, 0, 0, 37, 0).is_err());
 }
 
+/// Rays on both sides of the max-mip walk's climbing rule (`maxmip::CLIMB_RELIEF`): steep
+/// descents walk without climbing, shallow ones climb; both find the cell DDA's hit, test the
+/// same cells whichever way the walk goes, and stay under the step bound.
+#[test]
+fn maxmip_walks_with_and_without_climbing_find_the_cell_dda_hit() {
+    let (w, h) = (97u32, 80u32);
+    let mut st = 0x2545_f491_4f6c_dd1du64;
+    let s = grid(w, h, |x, y| {
+        st ^= st << 13;
+        st ^= st >> 7;
+        st ^= st << 17;
+        (x as f32 * 0.37).sin() * 9.0 + (y as f32 * 0.21).cos() * 6.0 + (st % 300) as f32 / 100.0
+    });
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let (mut a, mut b) = (Vec::new(), Vec::new());
+    let (t, _, mip) = tracer_all(&hf, Surface::Triangles, &mut a, &mut b);
+    let (mut climbing, mut not) = (0, 0);
+    for i in 0..400u32 {
+        let az = i as f64 * 0.7;
+        // Descents from 0.01 to about 6 height units per cell: the rule's threshold lies
+        // between (about 0.5 per cell on this grid).
+        let slope = 0.01 * 1.3f64.powi((i % 25) as i32);
+        let d = DVec3::new(az.cos(), az.sin(), -slope);
+        let o = DVec3::new(48.0, 40.0, 30.0) - d * 60.0;
+        let ray = Ray::new_f64(o, d).unwrap();
+        match t.local(&ray).map(|lr| t.climbs(&lr)) {
+            Some(true) => climbing += 1,
+            Some(false) => not += 1,
+            None => {}
+        }
+        let c = t.trace_cell_dda(&ray);
+        let m = t.trace_maxmip(&ray, &mip).unwrap();
+        assert!((m.steps as u64) < mip.step_bound());
+        match (c.hit, m.hit) {
+            (None, None) => {}
+            (Some(x), Some(y)) => assert!((x.t - y.t).abs() <= 1e-9 * x.t.abs().max(1.0)),
+            (x, y) => panic!("cell DDA {x:?}, max-mip {y:?} for {ray:?}"),
+        }
+    }
+    assert!(climbing > 50 && not > 50, "{climbing} climbing, {not} not");
+}
+
 #[test]
 fn march_error_is_bounded_by_its_bracket_on_smooth_terrain() {
     let s = grid(64, 64, |x, y| {
