@@ -1,0 +1,82 @@
+"""A/B of `relief` binaries on the max-mip method: the fourteen views of embree_rays.sh (every
+DEM of its list, camera and grazing), 384 x 256 rays, `--surface triangles --threads 1`, each
+binary in turn. Prints, per view, each binary's walk steps and chunked rays per second
+(`--chunk-rays 4096 --chunk-reps 9`, `rays_per_s_chunked`), and whether all binaries wrote the
+same depth image. No Embree run: for changes to the walk, where the image must not change.
+
+usage (from the repository root, with the venv of embree_rays.sh, which has numpy and embreex):
+    /tmp/venv-embree/bin/python bench-peers/maxmip_ab.py BIN_A BIN_B [BIN_A BIN_B ...]
+env: PACKET=1 times the AVX-512 packets (default: ray by ray, `--no-packet`); ONLY="puget fuji"
+limits the DEMs. List a binary twice, alternated, to see the machine's drift.
+"""
+import hashlib
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import numpy as np  # noqa: E402
+from embree_trace import fmt, view  # noqa: E402
+
+DATA = "../shared/data"
+# name file format dx dy z-multiplier: the list of embree_rays.sh
+DEMS = [
+    ("puget", "data/puget_sound_1k.png", "png", "160", "160", "0.1"),
+    ("fuji", f"{DATA}/martini_fuji.png", "terrain-rgb", "62.4", "62.4", "1"),
+    ("bayhills", f"{DATA}/delatin_14-2625-6369.png", "terrain-rgb", "3.81", "3.81", "1"),
+    ("sthelens", f"{DATA}/pymartini_mapbox_st_helens.png", "terrain-rgb", "6.61", "6.61", "1"),
+    ("canyon", f"{DATA}/pymartini_terrarium.png", "terrarium", "61.8", "61.8", "1"),
+    ("tujunga", f"{DATA}/topotoolbox_srtm_bigtujunga30m_utm11.tif", "tiff", "30", "30", "1"),
+    ("pysheds", f"{DATA}/pysheds_dem.tif", "tiff", "77.9", "92.6", "1"),
+]
+
+
+def main():
+    bins = sys.argv[1:]
+    if not bins:
+        sys.exit(__doc__)
+    packet = os.environ.get("PACKET", "0") == "1"
+    only = os.environ.get("ONLY", "").split()
+    tmp = tempfile.mkdtemp()
+    out = os.path.join(tmp, "depth.f32")
+    print("| DEM | view | " + " | ".join(f"{os.path.basename(b)}: steps, M rays/s" for b in bins) + " | images |")
+    print("|---|---|" + "---|" * len(bins) + "---|")
+    for name, path, fm, dx, dy, zmul in DEMS:
+        if only and name not in only:
+            continue
+        raw = os.path.join(tmp, f"{name}.raw")
+        dims = subprocess.run(
+            [sys.executable, os.path.join(os.path.dirname(__file__), "dem_to_raw.py"), path, fm, raw],
+            check=True,
+            capture_output=True,
+            text=True,
+        ).stdout.split()
+        gw, gh = int(dims[0]), int(dims[1])
+        z = np.fromfile(raw, "<f4") * np.float32(float(zmul))
+        z.astype("<f4").tofile(raw)
+        z = z.astype(np.float64).reshape(gh, gw)
+        for vn in ("camera", "grazing"):
+            eye, target, fov = view(vn, z, float(dx), float(dy))
+            eye = eye.astype(np.float32).astype(np.float64)
+            target = target.astype(np.float32).astype(np.float64)
+            cells, images = [], set()
+            for b in bins:
+                cmd = [
+                    b, "trace", "--dem", raw, "--format", "raw-f32", "--width", str(gw),
+                    "--height", str(gh), "--dx", dx, "--dy", dy, "--eye", fmt(eye),
+                    "--target", fmt(target), "--fov", str(fov), "--size", "384x256",
+                    "--method", "maxmip", "--surface", "triangles", "--threads", "1",
+                    "--out", out, "--json", "--chunk-rays", "4096", "--chunk-reps", "9",
+                ] + ([] if packet else ["--no-packet"])
+                rj = json.loads(subprocess.run(cmd, check=True, capture_output=True).stdout)
+                with open(out, "rb") as f:
+                    images.add(hashlib.md5(f.read()).hexdigest())
+                cells.append(f"{rj['steps']}, {rj['rays_per_s_chunked'] / 1e6:.2f}")
+            same = "same" if len(images) == 1 else "DIFFER"
+            print(f"| {name} | {vn} | " + " | ".join(cells) + f" | {same} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()
