@@ -883,8 +883,8 @@ fn maxmip_update_matches_rebuild() {
 }
 
 /// Rays on both sides of the max-mip walk's climbing rule (`maxmip::CLIMB_RELIEF`): steep
-/// descents walk without climbing, shallow ones climb; both find the cell DDA's hit, test the
-/// same cells whichever way the walk goes, and stay under the step bound.
+/// descents walk without climbing, shallow ones climb; both find the cell DDA's hit and stay
+/// under the step bound.
 #[test]
 fn maxmip_walks_with_and_without_climbing_find_the_cell_dda_hit() {
     let (w, h) = (97u32, 80u32);
