@@ -3,8 +3,9 @@
 //! (bit for bit), the same cell and step counts, for every surface, on the bundled DEM's camera
 //! and grazing views (the same depth image) and on small grids with the hard cases of
 //! HARD_CASES.md (vertices, grid lines, diagonals, axis-aligned, straight down, grazing,
-//! starting inside, offsets of 1e6, tiny and huge height scales, 2 x 2 grids), in packets of
-//! every length around the lane count, and on a pyramid too tall for the AVX-512 lane tables.
+//! starting inside, subnormal direction components, offsets of 1e6, tiny and huge height
+//! scales, 2 x 2 grids), in packets of every length around the lane count, and on a pyramid
+//! too tall for the AVX-512 lane tables.
 
 use relief_core::glam::{DVec3, Vec3};
 use relief_core::ray::{MaxMip, Ray, RayTracer, Trace, PACKET_LANES};
@@ -130,6 +131,12 @@ fn ray_set(w: u32, h: u32, s: &Scale, lo: f32, hi: f32, seed: u64) -> Vec<Ray> {
         push(DVec3::new(x, ey + 1.0, top), DVec3::new(0.0, -1.0, -0.05));
         push(DVec3::new(x, 0.0, top), DVec3::new(1.0, 1.0, -0.1));
         push(DVec3::new(ex, y, top), DVec3::new(-1.0, 1.0, -0.1));
+    }
+    // Subnormal horizontal components along grid lines and borders (fold to exact zeros).
+    for k in 0..w.min(h) {
+        let (x, y) = (k as f64 * s.dx as f64, k as f64 * s.dy as f64);
+        push(DVec3::new(x, -1.0, top), DVec3::new(-1e-320, 1.0, -0.3));
+        push(DVec3::new(-1.0, y, top), DVec3::new(1.0, 5e-324, -0.3));
     }
     // Axis-aligned horizontal rays at the top sample height, grazing rays 1e-6 rad down.
     for k in 0..h {

@@ -357,19 +357,30 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
             ray.origin.y / self.spacing.y,
             ray.origin.z - self.z_offset,
         );
-        let d = DVec3::new(
+        let mut d = DVec3::new(
             ray.dir.x / self.spacing.x,
             ray.dir.y / self.spacing.y,
             ray.dir.z,
         );
-        let mut t0 = 0.0f64;
-        let mut t1 = f64::INFINITY;
-        let ext = self.cells.as_dvec2();
         // The side clips multiply by the reciprocals that the walks' slabs use (two divisions
         // fewer a ray than dividing, the same depth images on the views of
         // bench-peers/maxmip_ab.py); the conversion to grid units above divides (a rounded
         // reciprocal of the spacing moves exact grid coordinates).
         let inv = [1.0 / d.x, 1.0 / d.y];
+        // A horizontal component whose reciprocal overflows (subnormal in grid units) moves
+        // the ray by less than the smallest normal number over any length a finite `t` can
+        // reach in the domain: it folds to an exact zero, as a minor component that vanishes
+        // in the DDAs' fixed point does. Kept, it made `0 * inf = NaN` slab parameters for a
+        // ray starting on a grid line, and the exact methods disagreed (`HARD_CASES.md`).
+        if !inv[0].is_finite() {
+            d.x = 0.0;
+        }
+        if !inv[1].is_finite() {
+            d.y = 0.0;
+        }
+        let mut t0 = 0.0f64;
+        let mut t1 = f64::INFINITY;
+        let ext = self.cells.as_dvec2();
         for (oc, dc, hi, ic) in [(o.x, d.x, ext.x, inv[0]), (o.y, d.y, ext.y, inv[1])] {
             if dc == 0.0 {
                 if !(oc >= 0.0 && oc <= hi) {

@@ -1046,3 +1046,34 @@ fn start_below_surface_on_a_grid_line_hits_at_start_with_every_method() {
         assert_eq!(tr.hit.map(|h| h.t), Some(0.0), "{tr:?}");
     }
 }
+
+/// A horizontal direction component so small that its reciprocal overflows (subnormal in grid
+/// units) folds like an exact zero, on grid lines and on both domain borders: every exact
+/// method finds the axis-parallel ray's hit. Before, `0 * inf = NaN` slab parameters made the
+/// cell DDA, the run DDA and the max-mip walk disagree, and miss hits the exact-zero ray has.
+#[test]
+fn hard_subnormal_direction_component_folds_like_an_exact_zero() {
+    let s = grid(9, 9, |x, y| ((x * 7 + y * 3) % 5) as f32);
+    let hf = Heightfield::new(&s, 9, 9).unwrap();
+    for surface in SURFACES {
+        for o in [0.0f64, 4.0, 8.0] {
+            for tiny in [1e-320f64, -1e-320, 5e-324, -5e-324] {
+                for (origin, dir, exact) in [
+                    ([o, -1.0, 10.0], [tiny, 1.0, -1.5], [0.0, 1.0, -1.5]),
+                    ([-1.0, o, 10.0], [1.0, tiny, -1.5], [1.0, 0.0, -1.5]),
+                    ([o, o, 10.0], [tiny, tiny, -1.0], [0.0, 0.0, -1.0]),
+                ] {
+                    let r = Ray::new_f64(DVec3::from(origin), DVec3::from(dir)).unwrap();
+                    let z = Ray::new_f64(DVec3::from(origin), DVec3::from(exact)).unwrap();
+                    let (h, hz) = (trace_exact(&hf, surface, &r), trace_exact(&hf, surface, &z));
+                    assert!(hz.is_some(), "{surface:?} {origin:?}");
+                    assert_eq!(
+                        h.map(|h| h.t),
+                        hz.map(|h| h.t),
+                        "{surface:?} {origin:?} {dir:?}"
+                    );
+                }
+            }
+        }
+    }
+}
