@@ -373,12 +373,6 @@ pub(super) struct Walk {
     pub(super) dir_y: i8,
     pub(super) step_x: i64,
     pub(super) step_y: i64,
-    /// Whether the walk climbs a level when a skip crosses into another parent
-    /// ([`RayTracer::climbs`]). `mip_start` leaves it `true` and the scalar walk sets it; the
-    /// packet path computes it per step from its lanes instead, because computing it in
-    /// `mip_start`, which the packet step inlines through its lane refill, made the packets
-    /// 5-8% slower.
-    pub(super) climb: bool,
 }
 
 impl<T: Terrain> RayTracer<'_, T> {
@@ -418,11 +412,12 @@ impl<T: Terrain> RayTracer<'_, T> {
             dir_y: sign(lr.d.y),
             step_x: if lr.d.x >= 0.0 { 1 } else { -1 },
             step_y: if lr.d.y >= 0.0 { 1 } else { -1 },
-            climb: true,
         })
     }
 
     /// Whether a walk of `lr` climbs after a skip into another parent (see `CLIMB_RELIEF`).
+    /// Computed by the callers of `mip_start`, not inside it: there, where the packet path
+    /// inlines it through its lane refill, it made the packets 5-8% slower.
     #[inline(always)]
     pub(super) fn climbs(&self, lr: &LocalRay) -> bool {
         -lr.d.z <= self.climb_slope * max_f(lr.d.x.abs(), lr.d.y.abs())
@@ -434,7 +429,14 @@ impl<T: Terrain> RayTracer<'_, T> {
     /// `ray/simd.rs` takes the same step in eight lanes with the same operations: keep the two
     /// in step.
     #[inline(always)]
-    fn mip_step(&self, ray: &Ray, mip: &MaxMip<'_>, w: &mut Walk, out: &mut Trace) -> bool {
+    fn mip_step(
+        &self,
+        ray: &Ray,
+        mip: &MaxMip<'_>,
+        w: &mut Walk,
+        climb: bool,
+        out: &mut Trace,
+    ) -> bool {
         if w.steps >= mip.bound {
             return false;
         }
@@ -510,7 +512,7 @@ impl<T: Terrain> RayTracer<'_, T> {
         if sx < 0 || sy < 0 || sx >= lv.w || sy >= lv.h {
             return false;
         }
-        if w.climb && ((sx >> 1) != (ix >> 1) || (sy >> 1) != (iy >> 1)) {
+        if climb && ((sx >> 1) != (ix >> 1) || (sy >> 1) != (iy >> 1)) {
             w.lvl += 1;
             sx >>= 1;
             sy >>= 1;
@@ -598,9 +600,9 @@ impl<T: Terrain> RayTracer<'_, T> {
     #[inline(always)]
     fn mip_walk(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) {
         if let Some(mut w) = self.mip_start(ray, mip, out) {
-            w.climb = self.climbs(&w.lr);
+            let climb = self.climbs(&w.lr);
             // Bounded: every step counts towards `mip.bound`, after which `mip_step` stops.
-            while self.mip_step(ray, mip, &mut w, out) {}
+            while self.mip_step(ray, mip, &mut w, climb, out) {}
         }
     }
 }

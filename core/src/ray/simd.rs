@@ -43,6 +43,8 @@ struct Lanes {
     posy: __mmask8,
     zerox: __mmask8,
     zeroy: __mmask8,
+    /// The walk climbs after a skip into another parent (`RayTracer::climbs`).
+    climb: __mmask8,
 }
 
 impl Lanes {
@@ -72,13 +74,14 @@ impl Lanes {
             posy: 0,
             zerox: 0,
             zeroy: 0,
+            climb: 0,
         }
     }
 
-    /// Writes walk `w` into lane `k` (`bit = 1 << k`).
+    /// Writes walk `w` and its climbing rule `climb` into lane `k` (`bit = 1 << k`).
     #[target_feature(enable = "avx512f,avx512dq")]
     #[inline]
-    fn set(&mut self, bit: __mmask8, w: &Walk) {
+    fn set(&mut self, bit: __mmask8, w: &Walk, climb: bool) {
         let f = |v: __m512d, x: f64| _mm512_mask_blend_pd(bit, v, _mm512_set1_pd(x));
         let i = |v: __m512i, x: i64| _mm512_mask_blend_epi64(bit, v, _mm512_set1_epi64(x));
         let lr = &w.lr;
@@ -103,6 +106,7 @@ impl Lanes {
         self.posy = m(self.posy, w.dir_y > 0);
         self.zerox = m(self.zerox, w.dir_x == 0);
         self.zeroy = m(self.zeroy, w.dir_y == 0);
+        self.climb = m(self.climb, climb);
     }
 }
 
@@ -141,8 +145,6 @@ struct Consts {
     bound: __m512i,
     c1023: __m512i,
     three: __m512i,
-    /// `RayTracer::climb_slope`, splat.
-    climb_slope: __m512d,
 }
 
 /// `(entry, exit)` of the slabs `[lo, hi]` per lane: `slab_signed` of `maxmip.rs`.
@@ -261,7 +263,6 @@ impl<T: Terrain> RayTracer<'_, T> {
             bound: _mm512_set1_epi64(mip.bound.min(i64::MAX as u64) as i64),
             c1023: _mm512_set1_epi64(1023),
             three: _mm512_set1_epi64(3),
-            climb_slope: _mm512_set1_pd(self.climb_slope),
         };
         // Two packs of eight lanes, stepped in turn: their pyramid loads overlap.
         let mut packs = [Pack::new(), Pack::new()];
@@ -444,15 +445,7 @@ impl<T: Terrain> RayTracer<'_, T> {
             | _mm512_cmplt_epi64_mask(sy, c.zero_i)
             | _mm512_cmpge_epi64_mask(sx, w)
             | _mm512_cmpge_epi64_mask(sy, h);
-        // `Walk::climb`, from the lane's direction with the scalar operations.
-        let climb = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(
-            _mm512_sub_pd(_mm512_setzero_pd(), pk.ln.dz),
-            _mm512_mul_pd(
-                c.climb_slope,
-                _mm512_max_pd(_mm512_abs_pd(pk.ln.dx), _mm512_abs_pd(pk.ln.dy)),
-            ),
-        );
-        let up = climb
+        let up = pk.ln.climb
             & (_mm512_cmpneq_epi64_mask(_mm512_srai_epi64::<1>(sx), _mm512_srai_epi64::<1>(ix))
                 | _mm512_cmpneq_epi64_mask(_mm512_srai_epi64::<1>(sy), _mm512_srai_epi64::<1>(iy)));
         let sx = _mm512_mask_srai_epi64::<1>(sx, up, sx);
@@ -521,7 +514,7 @@ impl<T: Terrain> RayTracer<'_, T> {
             };
             *o = Trace::default();
             if let Some(w) = self.mip_start(ray, mip, o) {
-                ln.set(bit, &w);
+                ln.set(bit, &w, self.climbs(&w.lr));
                 *wk = Some(w);
                 *rk = r;
                 *active |= bit;
