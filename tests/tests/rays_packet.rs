@@ -77,6 +77,17 @@ fn assert_packets_equal(
                 rays[i],
                 t.surface()
             );
+            // Bit for bit, signs of zero included (`==` on floats equates -0 and +0).
+            if let (Some(gh), Some(sh)) = (g.hit, s.hit) {
+                let bits = |h: relief_core::ray::Hit| {
+                    (
+                        h.t.to_bits(),
+                        h.position.to_array().map(f64::to_bits),
+                        h.normal.to_array().map(f32::to_bits),
+                    )
+                };
+                assert_eq!(bits(gh), bits(sh), "{name}: hit bits differ for ray {i}");
+            }
         }
     }
     scalar.iter().filter(|s| s.hit.is_some()).count()

@@ -502,6 +502,8 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
         cell::intersect(self.surface, lr, cx, cy, &h, ta, tb)
     }
 
+    /// The hit of `ray` in cell `(cx, cy)`: world position, and the unit world normal of the
+    /// cell hit's grid-unit normal (`ray/simd.rs` computes the same normal in lanes).
     pub(crate) fn make_hit(&self, ray: &Ray, cx: u32, cy: u32, h: CellHit) -> Hit {
         let n = DVec3::new(h.n.x / self.spacing.x, h.n.y / self.spacing.y, h.n.z);
         let n = n.try_normalize().unwrap_or(DVec3::Z).as_vec3();
@@ -511,6 +513,12 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
             position: ray.at(h.t),
             normal: n,
         }
+    }
+
+    /// Horizontal spacing, world units per grid unit.
+    #[inline]
+    pub(crate) fn spacing(&self) -> DVec2 {
+        self.spacing
     }
 
     /// Traces `ray` with the cell DDA, testing every cell's bounding box (the four corner

@@ -3,19 +3,22 @@
 //! takes the step of [`RayTracer::trace_maxmip`] (`mip_step` in `maxmip.rs`) with the same
 //! `f64` operations in the same order — `maxpd`/`minpd` are the `max_f`/`min_f` rules there,
 //! conversions between integers and floats are exact — so every lane computes bit for bit the
-//! values of the scalar step, and the hits are the same. Only the pyramid loads (eight scalar
-//! loads, since the core has no `unsafe` for gathers), the exact cell test (rare: about one cell
-//! per ray) and the start of a ray run lane by lane; a lane whose ray ends takes the next ray.
+//! values of the scalar step, and the hits are the same. The exact cell test of the `triangles`
+//! surface runs in lanes too, with the operations of `cell::triangles_hit` and of the hit's
+//! normal in `make_hit`. Only the pyramid and corner loads (scalar loads, since the core has no
+//! `unsafe` for gathers), the cell tests of the other surfaces and the start of a ray run lane
+//! by lane; a lane whose ray ends takes the next ray.
 //!
 //! The state lives in registers; lanes are read and written through `bytemuck` casts, so the
 //! module needs no `unsafe` either. Callers select it at run time (see
 //! [`RayTracer::trace_maxmip_packet_avx512`]).
 
 use super::maxmip::Walk;
-use super::{MaxMip, Ray, RayTracer, Trace, PACKET_LANES};
-use crate::{Error, Terrain};
+use super::{Hit, MaxMip, Ray, RayTracer, Trace, PACKET_LANES};
+use crate::{Error, Surface, Terrain};
 use bytemuck::cast;
 use core::arch::x86_64::*;
+use glam::Vec3;
 
 /// Levels the lane tables hold (two 8-lane registers): grids up to `2^15` cells a side.
 const TABLE_LEVELS: u32 = 16;
@@ -385,26 +388,31 @@ impl<T: Terrain> RayTracer<'_, T> {
                     *h = self.corners(cx as u32, cy as u32);
                 }
             }
-            for k in 0..PACKET_LANES {
-                if leaf & (1 << k) == 0 {
-                    continue;
-                }
-                let (Some(Some(wk)), Some(&r)) = (pk.walks.get(k), pk.ray_of.get(k)) else {
-                    continue;
-                };
-                let (Some(ray), Some(o)) = (rays.get(r), out.get_mut(r)) else {
-                    continue;
-                };
-                let (Some(&a), Some(&b), Some(&cx), Some(&cy), Some(h)) =
-                    (tas.get(k), tbs.get(k), xs.get(k), ys.get(k), hs.get(k))
-                else {
-                    continue;
-                };
-                o.cells += 1;
-                let (cx, cy) = (cx as u32, cy as u32);
-                if let Some(hit) = super::cell::intersect(self.surface, &wk.lr, cx, cy, h, a, b) {
-                    o.hit = Some(self.make_hit(ray, cx, cy, hit));
-                    hit_mask |= 1 << k;
+            if self.surface == Surface::Triangles {
+                hit_mask = self.leaves_triangles8(rays, out, pk, leaf, (ta, tb), &hs);
+            } else {
+                for k in 0..PACKET_LANES {
+                    if leaf & (1 << k) == 0 {
+                        continue;
+                    }
+                    let (Some(Some(wk)), Some(&r)) = (pk.walks.get(k), pk.ray_of.get(k)) else {
+                        continue;
+                    };
+                    let (Some(ray), Some(o)) = (rays.get(r), out.get_mut(r)) else {
+                        continue;
+                    };
+                    let (Some(&a), Some(&b), Some(&cx), Some(&cy), Some(h)) =
+                        (tas.get(k), tbs.get(k), xs.get(k), ys.get(k), hs.get(k))
+                    else {
+                        continue;
+                    };
+                    o.cells += 1;
+                    let (cx, cy) = (cx as u32, cy as u32);
+                    if let Some(hit) = super::cell::intersect(self.surface, &wk.lr, cx, cy, h, a, b)
+                    {
+                        o.hit = Some(self.make_hit(ray, cx, cy, hit));
+                        hit_mask |= 1 << k;
+                    }
                 }
             }
         }
@@ -482,6 +490,142 @@ impl<T: Terrain> RayTracer<'_, T> {
                 );
             }
         }
+    }
+
+    /// The exact `triangles` test of the leaf lanes `leaf` (cells `(ix, iy)` of their lanes,
+    /// parameter intervals `ta..tb`, corner heights `hs`) in the eight lanes at once:
+    /// `cell::triangles_hit` with the same `f64` operations in the same order, each of its
+    /// branches a lane mask, so every lane gets the scalar test's result bit for bit. Records
+    /// the leaf lanes' cells and hits in `out`; returns the lanes that hit.
+    #[target_feature(enable = "avx512f,avx512dq")]
+    #[inline]
+    fn leaves_triangles8(
+        &self,
+        rays: &[Ray],
+        out: &mut [Trace],
+        pk: &Pack,
+        leaf: __mmask8,
+        (ta, tb): (__m512d, __m512d),
+        hs: &[[f64; 4]; PACKET_LANES],
+    ) -> __mmask8 {
+        let ln = &pk.ln;
+        let corner = |c: usize| -> __m512d {
+            let mut v = [0.0f64; PACKET_LANES];
+            for (x, h) in v.iter_mut().zip(hs) {
+                *x = h.get(c).copied().unwrap_or(0.0);
+            }
+            cast(v)
+        };
+        let (h00, h10, h01, h11) = (corner(0), corner(1), corner(2), corner(3));
+        let zero = _mm512_setzero_pd();
+        let one = _mm512_set1_pd(1.0);
+        let half = _mm512_set1_pd(0.5);
+        // Cell-local origin (`cell::intersect`).
+        let px = _mm512_sub_pd(ln.ox, _mm512_cvtepi64_pd(ln.ix));
+        let py = _mm512_sub_pd(ln.oy, _mm512_cvtepi64_pd(ln.iy));
+        let (dx, dy) = (ln.dx, ln.dy);
+        // The diagonal crossing `td = -g0 / gd` splits `[ta, tb]` where it lies inside.
+        let g0 = _mm512_sub_pd(px, py);
+        let gd = _mm512_sub_pd(dx, dy);
+        let td = _mm512_div_pd(_mm512_xor_pd(g0, _mm512_set1_pd(-0.0)), gd);
+        let cross = _mm512_cmp_pd_mask::<_CMP_NEQ_UQ>(gd, zero)
+            & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(td, ta)
+            & _mm512_cmp_pd_mask::<_CMP_LT_OQ>(td, tb);
+        // `clamp(0, 1)`: `max(0, x)` keeps `x` on ties and NaN, as `f64::clamp` does.
+        let clamp01 = |x: __m512d| _mm512_min_pd(one, _mm512_max_pd(zero, x));
+        // Ray height minus the piece's triangle at `t` (`tri_height` of the upper or lower
+        // triangle, chosen per lane by `upper`).
+        let f = |t: __m512d, upper: __mmask8| {
+            let x = clamp01(_mm512_add_pd(px, _mm512_mul_pd(t, dx)));
+            let y = clamp01(_mm512_add_pd(py, _mm512_mul_pd(t, dy)));
+            let a = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h10, h00), _mm512_sub_pd(h11, h01));
+            let b = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h11, h10), _mm512_sub_pd(h01, h00));
+            let s = _mm512_add_pd(_mm512_add_pd(h00, _mm512_mul_pd(x, a)), _mm512_mul_pd(y, b));
+            _mm512_sub_pd(_mm512_add_pd(ln.oz, _mm512_mul_pd(t, ln.dz)), s)
+        };
+        let upper_at = |a: __m512d, b: __m512d| {
+            let mid = _mm512_mul_pd(half, _mm512_add_pd(a, b));
+            _mm512_cmp_pd_mask::<_CMP_GT_OQ>(
+                _mm512_add_pd(py, _mm512_mul_pd(mid, dy)),
+                _mm512_add_pd(px, _mm512_mul_pd(mid, dx)),
+            )
+        };
+        let le0 = |v: __m512d| _mm512_cmp_pd_mask::<_CMP_LE_OQ>(v, zero);
+        // First piece `[ta, td or tb]`, then (where the diagonal cuts) `[td, tb]`.
+        let b1 = _mm512_mask_blend_pd(cross, tb, td);
+        let up1 = upper_at(ta, b1);
+        let (fa1, fb1) = (f(ta, up1), f(b1, up1));
+        let up2 = upper_at(td, tb);
+        let (fa2, fb2) = (f(td, up2), f(tb, up2));
+        let second = cross & !le0(fa1) & !le0(fb1);
+        let a = _mm512_mask_blend_pd(second, ta, td);
+        let b = _mm512_mask_blend_pd(second, b1, tb);
+        let fa = _mm512_mask_blend_pd(second, fa1, fa2);
+        let fb = _mm512_mask_blend_pd(second, fb1, fb2);
+        let upper = (up1 & !second) | (up2 & second);
+        let at_a = le0(fa);
+        let hits = leaf & (at_a | le0(fb));
+        // `t = a + (b - a) * (fa / (fa - fb))`, then `t.max(a).min(b)`.
+        let t = _mm512_add_pd(
+            a,
+            _mm512_mul_pd(
+                _mm512_sub_pd(b, a),
+                _mm512_div_pd(fa, _mm512_sub_pd(fa, fb)),
+            ),
+        );
+        let t = _mm512_min_pd(_mm512_max_pd(t, a), b);
+        let t: [f64; 8] = cast(_mm512_mask_blend_pd(at_a, t, a));
+        // The unit world normal of `make_hit` in lanes (`triangle_normal`, divided by the
+        // spacing, `DVec3::try_normalize`, then `f32`): a scalar square root here would be
+        // libm's legacy-SSE `sqrtsd`, slow after AVX-512 code.
+        let neg = _mm512_set1_pd(-0.0);
+        let na = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h10, h00), _mm512_sub_pd(h11, h01));
+        let nb = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h11, h10), _mm512_sub_pd(h01, h00));
+        let sp = self.spacing();
+        let nx = _mm512_div_pd(_mm512_xor_pd(na, neg), _mm512_set1_pd(sp.x));
+        let ny = _mm512_div_pd(_mm512_xor_pd(nb, neg), _mm512_set1_pd(sp.y));
+        let len2 = _mm512_add_pd(
+            _mm512_add_pd(_mm512_mul_pd(nx, nx), _mm512_mul_pd(ny, ny)),
+            _mm512_mul_pd(one, one),
+        );
+        let rcp = _mm512_div_pd(one, _mm512_sqrt_pd(len2));
+        let ok = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(rcp, _mm512_set1_pd(f64::INFINITY))
+            & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(rcp, zero);
+        let unit = |v: __m512d, fallback: __m512d| -> [f32; 8] {
+            cast(_mm512_cvtpd_ps(_mm512_mask_blend_pd(
+                ok,
+                fallback,
+                _mm512_mul_pd(v, rcp),
+            )))
+        };
+        let (ux, uy, uz) = (unit(nx, zero), unit(ny, zero), unit(one, one));
+        let (xs, ys): ([i64; 8], [i64; 8]) = (cast(ln.ix), cast(ln.iy));
+        for k in 0..PACKET_LANES {
+            let bit = 1u8 << k;
+            if leaf & bit == 0 {
+                continue;
+            }
+            let (Some(&r), Some(&cx), Some(&cy), Some(&tk)) =
+                (pk.ray_of.get(k), xs.get(k), ys.get(k), t.get(k))
+            else {
+                continue;
+            };
+            let (Some(ray), Some(o)) = (rays.get(r), out.get_mut(r)) else {
+                continue;
+            };
+            o.cells += 1;
+            if let (true, Some(&x), Some(&y), Some(&z)) =
+                (hits & bit != 0, ux.get(k), uy.get(k), uz.get(k))
+            {
+                o.hit = Some(Hit {
+                    t: tk,
+                    cell: [cx as u32, cy as u32],
+                    position: ray.at(tk),
+                    normal: Vec3::new(x, y, z),
+                });
+            }
+        }
+        hits
     }
 
     /// Puts the next ray that needs a walk into lane `k` (its `Trace` reset, start tested);
