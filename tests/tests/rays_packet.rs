@@ -3,7 +3,7 @@
 //! (bit for bit), the same cell and step counts, for every surface, on the bundled DEM's camera
 //! and grazing views (the same depth image) and on small grids with the hard cases of
 //! HARD_CASES.md (vertices, grid lines, diagonals, axis-aligned, straight down, grazing,
-//! starting inside, subnormal direction components, offsets of 1e6, tiny and huge height
+//! starting inside, horizontal above the terrain, subnormal direction components, offsets of 1e6, tiny and huge height
 //! scales, 2 x 2 grids), in packets of every length around the lane count, and on a pyramid
 //! too tall for the AVX-512 lane tables.
 
@@ -153,6 +153,8 @@ fn ray_set(w: u32, h: u32, s: &Scale, lo: f32, hi: f32, seed: u64) -> Vec<Ray> {
     for k in 0..h {
         let y = (k as f64 + 0.25) * s.dy as f64;
         push(DVec3::new(-2.0, y, z0 + hi), DVec3::new(1.0, 0.0, 0.0));
+        // Horizontal above the height range: clipped away before any step.
+        push(DVec3::new(-2.0, y, top), DVec3::new(1.0, 0.3, 0.0));
         push(
             DVec3::new(ex + 2.0, y, z0 + hi),
             DVec3::new(-1.0, 0.0, -1e-6),

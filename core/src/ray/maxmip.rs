@@ -375,6 +375,31 @@ pub(super) struct Walk {
     pub(super) step_y: i64,
 }
 
+impl Walk {
+    /// The walk of `lr` from node `(ix, iy)` of level `lvl`, at the clipped start.
+    #[inline(always)]
+    pub(super) fn start(lr: LocalRay, lvl: u32, ix: i64, iy: i64) -> Walk {
+        Walk {
+            lr,
+            t: lr.t0,
+            ix,
+            iy,
+            lvl,
+            steps: 0,
+            dir_x: sign(lr.d.x),
+            dir_y: sign(lr.d.y),
+            step_x: if lr.d.x >= 0.0 { 1 } else { -1 },
+            step_y: if lr.d.y >= 0.0 { 1 } else { -1 },
+        }
+    }
+}
+
+/// The level where every walk of `mip` starts (`START_DEPTH` below the top).
+#[inline(always)]
+pub(super) fn start_level(mip: &MaxMip<'_>) -> u32 {
+    (mip.levels - 1).saturating_sub(START_DEPTH)
+}
+
 impl<T: Terrain> RayTracer<'_, T> {
     pub(super) fn check_mip(&self, mip: &MaxMip<'_>) -> Result<(), Error> {
         if mip.nx != self.cells.x || mip.ny != self.cells.y {
@@ -395,29 +420,23 @@ impl<T: Terrain> RayTracer<'_, T> {
             out.hit = Some(hit);
             return None;
         }
-        let top = mip.levels - 1;
-        let lvl = top.saturating_sub(START_DEPTH);
+        let lvl = start_level(mip);
         let l = mip.level(lvl);
         let inv = f64::from_bits((1023 - lvl as u64) << 52);
         let px = lr.o.x + lr.t0 * lr.d.x;
         let py = lr.o.y + lr.t0 * lr.d.y;
-        Some(Walk {
+        Some(Walk::start(
             lr,
-            t: lr.t0,
-            ix: min_i(max_i((px * inv) as i64, 0), l.w - 1),
-            iy: min_i(max_i((py * inv) as i64, 0), l.h - 1),
             lvl,
-            steps: 0,
-            dir_x: sign(lr.d.x),
-            dir_y: sign(lr.d.y),
-            step_x: if lr.d.x >= 0.0 { 1 } else { -1 },
-            step_y: if lr.d.y >= 0.0 { 1 } else { -1 },
-        })
+            min_i(max_i((px * inv) as i64, 0), l.w - 1),
+            min_i(max_i((py * inv) as i64, 0), l.h - 1),
+        ))
     }
 
     /// Whether a walk of `lr` climbs after a skip into another parent (see `CLIMB_RELIEF`).
-    /// Computed by the callers of `mip_start`, not inside it: there, where the packet path
-    /// inlines it through its lane refill, it made the packets 5-8% slower.
+    /// Computed by the scalar walk before its loop, not in `mip_start` (the packet path, which
+    /// once inlined `mip_start` and ran 5-8% slower with it there, now computes the rule in
+    /// lanes in `ray/simd.rs`).
     #[inline(always)]
     pub(super) fn climbs(&self, lr: &LocalRay) -> bool {
         -lr.d.z <= self.climb_slope * max_f(lr.d.x.abs(), lr.d.y.abs())
@@ -608,7 +627,7 @@ impl<T: Terrain> RayTracer<'_, T> {
 }
 
 #[inline(always)]
-fn sign(d: f64) -> i8 {
+pub(super) fn sign(d: f64) -> i8 {
     if d > 0.0 {
         1
     } else if d < 0.0 {
@@ -634,7 +653,7 @@ fn slab_signed(o: f64, inv: f64, sign: i8, lo: f64, hi: f64) -> (f64, f64) {
 /// `max` without the NaN handling of `f64::max` (operands are never NaN here); exactly the
 /// x86 `maxpd` rule (`b` unless `a > b`), so the SIMD path computes the same values.
 #[inline(always)]
-fn max_f(a: f64, b: f64) -> f64 {
+pub(super) fn max_f(a: f64, b: f64) -> f64 {
     if a > b {
         a
     } else {
@@ -644,7 +663,7 @@ fn max_f(a: f64, b: f64) -> f64 {
 
 /// `min` without the NaN handling of `f64::min`; exactly the x86 `minpd` rule.
 #[inline(always)]
-fn min_f(a: f64, b: f64) -> f64 {
+pub(super) fn min_f(a: f64, b: f64) -> f64 {
     if a < b {
         a
     } else {

@@ -61,6 +61,7 @@ pub use run::RunAccel;
 use crate::{Error, Surface, Terrain};
 use cell::{CellHit, LocalRay};
 use glam::{DVec2, DVec3, Vec3};
+use maxmip::{max_f, min_f};
 
 /// Cells per axis.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -349,8 +350,18 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
         self.cells.x as u64 + self.cells.y as u64 + 2
     }
 
+    /// The heights `(lo, hi)` a ray is clipped to: the height range widened by a margin (a flat
+    /// sea at the lowest height must not clip to a point and be lost).
+    #[inline]
+    pub(crate) fn clip_heights(&self) -> (f64, f64) {
+        let margin = 1e-6 * self.zmin.abs().max(self.zmax.abs()) + 1e-9;
+        (self.zmin - margin, self.zmax + margin)
+    }
+
     /// The ray in local coordinates, clipped to the domain prism and the height range; `None`
-    /// when it cannot hit.
+    /// when it cannot hit. `ray/simd.rs` (`starts8`) clips eight rays at once with the same
+    /// operations in the same order (`max_f` / `min_f` are the `maxpd` / `minpd` rules): keep
+    /// the two in step.
     pub(crate) fn local(&self, ray: &Ray) -> Option<LocalRay> {
         let o = DVec3::new(
             ray.origin.x / self.spacing.x,
@@ -389,28 +400,27 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
             } else {
                 let a = (0.0 - oc) * ic;
                 let b = (hi - oc) * ic;
-                t0 = t0.max(a.min(b));
-                t1 = t1.min(a.max(b));
+                t0 = max_f(t0, min_f(a, b));
+                t1 = min_f(t1, max_f(a, b));
             }
         }
         if t0.is_nan() || t1.is_nan() || t0 > t1 {
             return None;
         }
-        let margin = 1e-6 * self.zmin.abs().max(self.zmax.abs()) + 1e-9;
-        let (zlo, zhi) = (self.zmin - margin, self.zmax + margin);
+        let (zlo, zhi) = self.clip_heights();
         if d.z == 0.0 {
             if o.z > zhi {
                 return None;
             }
         } else if d.z < 0.0 {
-            t0 = t0.max((zhi - o.z) / d.z);
+            t0 = max_f(t0, (zhi - o.z) / d.z);
             if t0 > t1 {
                 return None;
             }
             // Below every height from here on: the hit is at or before this point.
-            t1 = t1.min(t0.max((zlo - o.z) / d.z));
+            t1 = min_f(t1, max_f(t0, (zlo - o.z) / d.z));
         } else {
-            t1 = t1.min((zhi - o.z) / d.z);
+            t1 = min_f(t1, (zhi - o.z) / d.z);
             if t0 > t1 {
                 return None;
             }
@@ -513,12 +523,6 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
             position: ray.at(h.t),
             normal: n,
         }
-    }
-
-    /// Horizontal spacing, world units per grid unit.
-    #[inline]
-    pub(crate) fn spacing(&self) -> DVec2 {
-        self.spacing
     }
 
     /// Traces `ray` with the cell DDA, testing every cell's bounding box (the four corner

@@ -5,20 +5,23 @@
 //! conversions between integers and floats are exact — so every lane computes bit for bit the
 //! values of the scalar step, and the hits are the same. The exact cell test of the `triangles`
 //! surface runs in lanes too, with the operations of `cell::triangles_hit` and of the hit's
-//! normal in `make_hit`. Only the pyramid and corner loads (scalar loads, since the core has no
-//! `unsafe` for gathers), the cell tests of the other surfaces and the start of a ray run lane
-//! by lane; a lane whose ray ends takes the next ray.
+//! normal in `make_hit`, and so does the clip and start of the rays, eight at a time
+//! (`RayTracer::local` and `mip_start`). Only the pyramid and corner loads (scalar loads, since
+//! the core has no `unsafe` for gathers), the cell tests of the other surfaces and the start
+//! test of rays that begin below the highest sample run lane by lane; a lane whose ray ends
+//! takes the next clipped ray.
 //!
 //! The state lives in registers; lanes are read and written through `bytemuck` casts, so the
 //! module needs no `unsafe` either. Callers select it at run time (see
 //! [`RayTracer::trace_maxmip_packet_avx512`]).
 
-use super::maxmip::Walk;
+use super::cell::LocalRay;
+use super::maxmip::start_level;
 use super::{Hit, MaxMip, Ray, RayTracer, Trace, PACKET_LANES};
 use crate::{Error, Surface, Terrain};
 use bytemuck::cast;
 use core::arch::x86_64::*;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// Levels the lane tables hold (two 8-lane registers): grids up to `2^15` cells a side.
 const TABLE_LEVELS: u32 = 16;
@@ -81,42 +84,49 @@ impl Lanes {
         }
     }
 
-    /// Writes walk `w` and its climbing rule `climb` into lane `k` (`bit = 1 << k`).
+    /// Moves lane `j` of `from` into lane `k` (`bit = 1 << k`): a permute per vector, no
+    /// round trip through scalars.
     #[target_feature(enable = "avx512f,avx512dq")]
     #[inline]
-    fn set(&mut self, bit: __mmask8, w: &Walk, climb: bool) {
-        let f = |v: __m512d, x: f64| _mm512_mask_blend_pd(bit, v, _mm512_set1_pd(x));
-        let i = |v: __m512i, x: i64| _mm512_mask_blend_epi64(bit, v, _mm512_set1_epi64(x));
-        let lr = &w.lr;
-        self.ox = f(self.ox, lr.o.x);
-        self.oy = f(self.oy, lr.o.y);
-        self.oz = f(self.oz, lr.o.z);
-        self.dx = f(self.dx, lr.d.x);
-        self.dy = f(self.dy, lr.d.y);
-        self.dz = f(self.dz, lr.d.z);
-        self.invx = f(self.invx, lr.inv[0]);
-        self.invy = f(self.invy, lr.inv[1]);
-        self.t1 = f(self.t1, lr.t1);
-        self.t = f(self.t, w.t);
-        self.ix = i(self.ix, w.ix);
-        self.iy = i(self.iy, w.iy);
-        self.lvl = i(self.lvl, w.lvl as i64);
-        self.steps = i(self.steps, w.steps as i64);
-        self.stepx = i(self.stepx, w.step_x);
-        self.stepy = i(self.stepy, w.step_y);
-        let m = |mask: __mmask8, on: bool| if on { mask | bit } else { mask & !bit };
-        self.posx = m(self.posx, w.dir_x > 0);
-        self.posy = m(self.posy, w.dir_y > 0);
-        self.zerox = m(self.zerox, w.dir_x == 0);
-        self.zeroy = m(self.zeroy, w.dir_y == 0);
-        self.climb = m(self.climb, climb);
+    fn take(&mut self, bit: __mmask8, from: &Lanes, j: usize) {
+        let idx = _mm512_set1_epi64(j as i64);
+        let f = |v: __m512d, src: __m512d| _mm512_mask_permutexvar_pd(v, bit, idx, src);
+        let i = |v: __m512i, src: __m512i| _mm512_mask_permutexvar_epi64(v, bit, idx, src);
+        self.ox = f(self.ox, from.ox);
+        self.oy = f(self.oy, from.oy);
+        self.oz = f(self.oz, from.oz);
+        self.dx = f(self.dx, from.dx);
+        self.dy = f(self.dy, from.dy);
+        self.dz = f(self.dz, from.dz);
+        self.invx = f(self.invx, from.invx);
+        self.invy = f(self.invy, from.invy);
+        self.t1 = f(self.t1, from.t1);
+        self.t = f(self.t, from.t);
+        self.ix = i(self.ix, from.ix);
+        self.iy = i(self.iy, from.iy);
+        self.lvl = i(self.lvl, from.lvl);
+        self.steps = i(self.steps, from.steps);
+        self.stepx = i(self.stepx, from.stepx);
+        self.stepy = i(self.stepy, from.stepy);
+        let m = |mask: __mmask8, src: __mmask8| {
+            if src & (1 << (j & 7)) != 0 {
+                mask | bit
+            } else {
+                mask & !bit
+            }
+        };
+        self.posx = m(self.posx, from.posx);
+        self.posy = m(self.posy, from.posy);
+        self.zerox = m(self.zerox, from.zerox);
+        self.zeroy = m(self.zeroy, from.zeroy);
+        self.climb = m(self.climb, from.climb);
     }
 }
 
 /// Lanes of one pack: the vector state, each lane's walk (for the exact cell test) and ray.
 struct Pack {
     ln: Lanes,
-    walks: [Option<Walk>; PACKET_LANES],
+    walks: [Option<LocalRay>; PACKET_LANES],
     ray_of: [usize; PACKET_LANES],
     active: __mmask8,
 }
@@ -131,6 +141,51 @@ impl Pack {
             ray_of: [usize::MAX; PACKET_LANES],
             active: 0,
         }
+    }
+}
+
+/// Up to [`PACKET_LANES`] consecutive rays clipped and started in lanes (`starts8`), handed
+/// to the lanes' refills one by one (`Lanes::take`).
+struct Starts {
+    /// Index of lane 0's ray; rays in the batch; the next lane to hand out.
+    first: usize,
+    len: usize,
+    cur: usize,
+    /// Lanes whose ray reaches the clipped prism (`RayTracer::local` is `Some`).
+    ok: __mmask8,
+    /// Lanes whose clipped start is not above the highest sample (`start_hit` must test it).
+    test: __mmask8,
+    /// The clipped rays, their start nodes and their direction masks, as in [`Lanes`].
+    ln: Lanes,
+}
+
+impl Starts {
+    #[target_feature(enable = "avx512f,avx512dq")]
+    #[inline]
+    fn new() -> Starts {
+        Starts {
+            first: 0,
+            len: 0,
+            cur: 0,
+            ok: 0,
+            test: 0,
+            ln: Lanes::new(),
+        }
+    }
+
+    /// The clipped ray of lane `k`.
+    #[target_feature(enable = "avx512f,avx512dq")]
+    #[inline]
+    fn local(&self, k: usize) -> Option<LocalRay> {
+        let at = |v: __m512d| cast::<__m512d, [f64; 8]>(v).get(k).copied();
+        let l = &self.ln;
+        Some(LocalRay {
+            o: DVec3::new(at(l.ox)?, at(l.oy)?, at(l.oz)?),
+            d: DVec3::new(at(l.dx)?, at(l.dy)?, at(l.dz)?),
+            inv: [at(l.invx)?, at(l.invy)?],
+            t0: at(l.t)?,
+            t1: at(l.t1)?,
+        })
     }
 }
 
@@ -193,7 +248,7 @@ impl<T: Terrain> RayTracer<'_, T> {
     /// # #[cfg(target_arch = "x86_64")] {
     /// use relief_core::ray::{MaxMip, Ray, RayTracer, Trace};
     /// use relief_core::{Heightfield, Surface};
-    /// use glam::Vec3;
+    /// use glam::{DVec3, Vec3};
     /// let s: Vec<f32> = (0..64).map(|i| ((i * 5) % 7) as f32).collect();
     /// let hf = Heightfield::new(&s, 8, 8).unwrap();
     /// let mut buf = vec![0.0; MaxMip::len(8, 8).unwrap()];
@@ -269,14 +324,14 @@ impl<T: Terrain> RayTracer<'_, T> {
         };
         // Two packs of eight lanes, stepped in turn: their pyramid loads overlap.
         let mut packs = [Pack::new(), Pack::new()];
-        let mut next = 0usize;
+        let mut st = Starts::new();
         for pk in packs.iter_mut() {
             for k in 0..PACKET_LANES {
                 self.refill(
                     rays,
                     mip,
                     out,
-                    &mut next,
+                    &mut st,
                     k,
                     &mut pk.walks,
                     &mut pk.ray_of,
@@ -294,7 +349,7 @@ impl<T: Terrain> RayTracer<'_, T> {
         while packs.iter().any(|p| p.active != 0) && round < rounds {
             round += 1;
             for pk in packs.iter_mut() {
-                self.step8(rays, mip, out, &mut next, &c, pk);
+                self.step8(rays, mip, out, &mut st, &c, pk);
             }
         }
     }
@@ -307,7 +362,7 @@ impl<T: Terrain> RayTracer<'_, T> {
         rays: &[Ray],
         mip: &MaxMip<'_>,
         out: &mut [Trace],
-        next: &mut usize,
+        starts: &mut Starts,
         c: &Consts,
         pk: &mut Pack,
     ) {
@@ -408,8 +463,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                     };
                     o.cells += 1;
                     let (cx, cy) = (cx as u32, cy as u32);
-                    if let Some(hit) = super::cell::intersect(self.surface, &wk.lr, cx, cy, h, a, b)
-                    {
+                    if let Some(hit) = super::cell::intersect(self.surface, wk, cx, cy, h, a, b) {
                         o.hit = Some(self.make_hit(ray, cx, cy, hit));
                         hit_mask |= 1 << k;
                     }
@@ -481,7 +535,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                     rays,
                     mip,
                     out,
-                    next,
+                    starts,
                     k,
                     &mut pk.walks,
                     &mut pk.ray_of,
@@ -581,7 +635,7 @@ impl<T: Terrain> RayTracer<'_, T> {
         let neg = _mm512_set1_pd(-0.0);
         let na = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h10, h00), _mm512_sub_pd(h11, h01));
         let nb = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h11, h10), _mm512_sub_pd(h01, h00));
-        let sp = self.spacing();
+        let sp = self.spacing;
         let nx = _mm512_div_pd(_mm512_xor_pd(na, neg), _mm512_set1_pd(sp.x));
         let ny = _mm512_div_pd(_mm512_xor_pd(nb, neg), _mm512_set1_pd(sp.y));
         let len2 = _mm512_add_pd(
@@ -628,8 +682,162 @@ impl<T: Terrain> RayTracer<'_, T> {
         hits
     }
 
+    /// Clips the rays from `first` (up to eight) in lanes and finds the node of level `lvl`
+    /// holding each clipped start: `RayTracer::local` and the start of `mip_start` with the
+    /// same `f64` operations in the same order, so every lane gets the scalar values bit for
+    /// bit (`max_f` / `min_f` there are the `maxpd` / `minpd` rules here).
+    #[target_feature(enable = "avx512f,avx512dq")]
+    #[inline]
+    fn starts8(&self, rays: &[Ray], first: usize, mip: &MaxMip<'_>, st: &mut Starts) {
+        let batch = rays.get(first..).unwrap_or(&[]);
+        let len = batch.len().min(PACKET_LANES);
+        // Lanes past the last ray repeat it (`refill` never hands them out). Built by inserts,
+        // not through an array: eight scalar stores read back as one vector stall the load.
+        let ray = |k: usize| batch.get(k.min(len.saturating_sub(1))).copied();
+        let Some(r0) = ray(0) else {
+            return;
+        };
+        let rs = [
+            r0,
+            ray(1).unwrap_or(r0),
+            ray(2).unwrap_or(r0),
+            ray(3).unwrap_or(r0),
+            ray(4).unwrap_or(r0),
+            ray(5).unwrap_or(r0),
+            ray(6).unwrap_or(r0),
+            ray(7).unwrap_or(r0),
+        ];
+        let lanes = |f: fn(&Ray) -> f64| {
+            let [a, b, c, d, e, g, h, i] = rs.each_ref().map(f);
+            _mm512_setr_pd(a, b, c, d, e, g, h, i)
+        };
+        let rox = lanes(|r| r.origin.x);
+        let roy = lanes(|r| r.origin.y);
+        let roz = lanes(|r| r.origin.z);
+        let rdx = lanes(|r| r.dir.x);
+        let rdy = lanes(|r| r.dir.y);
+        let rdz = lanes(|r| r.dir.z);
+        let zero = _mm512_setzero_pd();
+        let one = _mm512_set1_pd(1.0);
+        let inf = _mm512_set1_pd(f64::INFINITY);
+        let (sx, sy) = (
+            _mm512_set1_pd(self.spacing.x),
+            _mm512_set1_pd(self.spacing.y),
+        );
+        let ox = _mm512_div_pd(rox, sx);
+        let oy = _mm512_div_pd(roy, sy);
+        let oz = _mm512_sub_pd(roz, _mm512_set1_pd(self.z_offset));
+        let dx = _mm512_div_pd(rdx, sx);
+        let dy = _mm512_div_pd(rdy, sy);
+        let dz = rdz;
+        let invx = _mm512_div_pd(one, dx);
+        let invy = _mm512_div_pd(one, dy);
+        // A component whose reciprocal is not finite folds to an exact zero.
+        let finite = |x: __m512d| _mm512_cmp_pd_mask::<_CMP_LT_OQ>(_mm512_abs_pd(x), inf);
+        let dx = _mm512_mask_blend_pd(finite(invx), zero, dx);
+        let dy = _mm512_mask_blend_pd(finite(invy), zero, dy);
+        let mut fail: __mmask8 = 0;
+        let mut t0 = zero;
+        let mut t1 = inf;
+        let ext = self.cells.as_dvec2();
+        for (oc, dc, hi, ic) in [(ox, dx, ext.x, invx), (oy, dy, ext.y, invy)] {
+            let hi = _mm512_set1_pd(hi);
+            let flat = _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(dc, zero);
+            let inside = _mm512_cmp_pd_mask::<_CMP_GE_OQ>(oc, zero)
+                & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(oc, hi);
+            fail |= flat & !inside;
+            let a = _mm512_mul_pd(_mm512_sub_pd(zero, oc), ic);
+            let b = _mm512_mul_pd(_mm512_sub_pd(hi, oc), ic);
+            let n0 = _mm512_max_pd(t0, _mm512_min_pd(a, b));
+            let n1 = _mm512_min_pd(t1, _mm512_max_pd(a, b));
+            t0 = _mm512_mask_blend_pd(flat, n0, t0);
+            t1 = _mm512_mask_blend_pd(flat, n1, t1);
+        }
+        fail |= _mm512_cmp_pd_mask::<_CMP_UNORD_Q>(t0, t0)
+            | _mm512_cmp_pd_mask::<_CMP_UNORD_Q>(t1, t1)
+            | _mm512_cmp_pd_mask::<_CMP_GT_OQ>(t0, t1);
+        let (zlo, zhi) = self.clip_heights();
+        let (zlo, zhi) = (_mm512_set1_pd(zlo), _mm512_set1_pd(zhi));
+        let flat = _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(dz, zero);
+        let down = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(dz, zero);
+        let up = !flat & !down;
+        fail |= flat & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(oz, zhi);
+        // Descending: enter at the top of the range, end below its bottom.
+        let d0 = _mm512_max_pd(t0, _mm512_div_pd(_mm512_sub_pd(zhi, oz), dz));
+        fail |= down & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(d0, t1);
+        let d1 = _mm512_min_pd(
+            t1,
+            _mm512_max_pd(d0, _mm512_div_pd(_mm512_sub_pd(zlo, oz), dz)),
+        );
+        // Ascending: leave at the top of the range.
+        let u1 = _mm512_min_pd(t1, _mm512_div_pd(_mm512_sub_pd(zhi, oz), dz));
+        fail |= up & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(t0, u1);
+        let t0 = _mm512_mask_blend_pd(down, t0, d0);
+        let t1 = _mm512_mask_blend_pd(down, _mm512_mask_blend_pd(up, t1, u1), d1);
+        let ok = finite(t0) & finite(t1) & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(t0, t1) & !fail;
+        // The start node (`mip_start`).
+        let lvl = start_level(mip);
+        let l = mip.level(lvl);
+        let inv = _mm512_set1_pd(f64::from_bits((1023 - lvl as u64) << 52));
+        let node = |o: __m512d, d: __m512d, n: i64| {
+            let q = _mm512_mul_pd(_mm512_add_pd(o, _mm512_mul_pd(t0, d)), inv);
+            // `as i64` saturates: NaN and large negatives clamp to 0 below, large positives
+            // (which `cvttpd` turns negative) to the last node.
+            let big = _mm512_cmp_pd_mask::<_CMP_GE_OQ>(q, _mm512_set1_pd(i64::MAX as f64));
+            let i = _mm512_max_epi64(_mm512_cvttpd_epi64(q), _mm512_setzero_si512());
+            let last = _mm512_set1_epi64(n - 1);
+            _mm512_mask_blend_epi64(big, _mm512_min_epi64(i, last), last)
+        };
+        let (ix, iy) = (node(ox, dx, l.w), node(oy, dy, l.h));
+        let z0 = _mm512_add_pd(oz, _mm512_mul_pd(t0, dz));
+        let top = _mm512_set1_pd(self.zmax);
+        // `Walk::start` and `RayTracer::climbs`, in lanes.
+        let step = |d: __m512d| {
+            let pos = _mm512_cmp_pd_mask::<_CMP_GE_OQ>(d, zero);
+            _mm512_mask_blend_epi64(pos, _mm512_set1_epi64(-1), _mm512_set1_epi64(1))
+        };
+        let steep = _mm512_mul_pd(
+            _mm512_set1_pd(self.climb_slope),
+            _mm512_max_pd(_mm512_abs_pd(dx), _mm512_abs_pd(dy)),
+        );
+        *st = Starts {
+            first,
+            len,
+            cur: 0,
+            ok,
+            test: ok & !_mm512_cmp_pd_mask::<_CMP_GT_OQ>(z0, top),
+            ln: Lanes {
+                ox,
+                oy,
+                oz,
+                dx,
+                dy,
+                dz,
+                invx,
+                invy,
+                t1,
+                t: t0,
+                ix,
+                iy,
+                lvl: _mm512_set1_epi64(lvl as i64),
+                steps: _mm512_setzero_si512(),
+                stepx: step(dx),
+                stepy: step(dy),
+                posx: _mm512_cmp_pd_mask::<_CMP_GT_OQ>(dx, zero),
+                posy: _mm512_cmp_pd_mask::<_CMP_GT_OQ>(dy, zero),
+                zerox: _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(dx, zero),
+                zeroy: _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(dy, zero),
+                climb: _mm512_cmp_pd_mask::<_CMP_LE_OQ>(
+                    _mm512_xor_pd(dz, _mm512_set1_pd(-0.0)),
+                    steep,
+                ),
+            },
+        };
+    }
+
     /// Puts the next ray that needs a walk into lane `k` (its `Trace` reset, start tested);
-    /// leaves the lane idle when the rays are used up.
+    /// leaves the lane idle when the rays are used up. Rays are clipped eight at a time
+    /// (`starts8`) into `st`.
     #[allow(clippy::too_many_arguments)]
     #[target_feature(enable = "avx512f,avx512dq")]
     #[inline]
@@ -638,9 +846,9 @@ impl<T: Terrain> RayTracer<'_, T> {
         rays: &[Ray],
         mip: &MaxMip<'_>,
         out: &mut [Trace],
-        next: &mut usize,
+        st: &mut Starts,
         k: usize,
-        walks: &mut [Option<Walk>; PACKET_LANES],
+        walks: &mut [Option<LocalRay>; PACKET_LANES],
         ray_of: &mut [usize; PACKET_LANES],
         ln: &mut Lanes,
         active: &mut __mmask8,
@@ -650,20 +858,45 @@ impl<T: Terrain> RayTracer<'_, T> {
             return;
         };
         *wk = None;
-        while *next < rays.len() {
-            let r = *next;
-            *next += 1;
+        // Bounded: each pass hands out one ray (or clips the next batch, which has at least
+        // one ray), so `2 * rays.len() + 1` passes cover them all.
+        for _ in 0..=rays.len().saturating_mul(2) {
+            if st.cur >= st.len {
+                let first = st.first + st.len;
+                if first >= rays.len() {
+                    return;
+                }
+                self.starts8(rays, first, mip, st);
+            }
+            let j = st.cur;
+            st.cur += 1;
+            let r = st.first + j;
             let (Some(ray), Some(o)) = (rays.get(r), out.get_mut(r)) else {
-                break;
+                return;
             };
             *o = Trace::default();
-            if let Some(w) = self.mip_start(ray, mip, o) {
-                ln.set(bit, &w, self.climbs(&w.lr));
-                *wk = Some(w);
-                *rk = r;
-                *active |= bit;
-                return;
+            let jb = 1u8 << (j & 7);
+            if st.ok & jb == 0 {
+                continue;
             }
+            if st.test & jb != 0 {
+                let Some(lr) = st.local(j) else {
+                    continue;
+                };
+                if let Some(hit) = self.start_hit(ray, &lr) {
+                    o.cells = 1;
+                    o.hit = Some(hit);
+                    continue;
+                }
+            }
+            ln.take(bit, &st.ln, j);
+            // The scalar cell tests of the other surfaces take the lane's walk.
+            if self.surface != Surface::Triangles {
+                *wk = st.local(j);
+            }
+            *rk = r;
+            *active |= bit;
+            return;
         }
     }
 }
