@@ -189,6 +189,26 @@ impl Starts {
     }
 }
 
+/// Hits of the `triangles` leaf test waiting for their unit normal: the ray and its triangle's
+/// grid-unit normal `(nx, ny, 1)`. Normalised [`PACKET_LANES`] at a time (`Normals::flush`)
+/// rather than in the step, where one or two lanes hit at a time.
+struct Normals {
+    len: usize,
+    ray: [usize; PENDING],
+    nx: [f64; PENDING],
+    ny: [f64; PENDING],
+}
+
+/// Hits a [`Normals`] holds before it is flushed (a multiple of [`PACKET_LANES`]).
+const PENDING: usize = 64;
+
+/// The per-call state both packs share: the clipped rays to hand out, the hits waiting for
+/// their normals.
+struct Feed<'a> {
+    starts: &'a mut Starts,
+    normals: &'a mut Normals,
+}
+
 /// Per-call constants: level tables and splats.
 struct Consts {
     off_t: (__m512i, __m512i),
@@ -325,6 +345,12 @@ impl<T: Terrain> RayTracer<'_, T> {
         // Two packs of eight lanes, stepped in turn: their pyramid loads overlap.
         let mut packs = [Pack::new(), Pack::new()];
         let mut st = Starts::new();
+        let mut normals = Normals {
+            len: 0,
+            ray: [0; PENDING],
+            nx: [0.0; PENDING],
+            ny: [0.0; PENDING],
+        };
         for pk in packs.iter_mut() {
             for k in 0..PACKET_LANES {
                 self.refill(
@@ -349,9 +375,14 @@ impl<T: Terrain> RayTracer<'_, T> {
         while packs.iter().any(|p| p.active != 0) && round < rounds {
             round += 1;
             for pk in packs.iter_mut() {
-                self.step8(rays, mip, out, &mut st, &c, pk);
+                let feed = Feed {
+                    starts: &mut st,
+                    normals: &mut normals,
+                };
+                self.step8(rays, mip, out, feed, &c, pk);
             }
         }
+        self.flush_normals(&mut normals, out);
     }
 
     /// One step of every busy lane of `pk`; ended lanes take the next ray.
@@ -362,7 +393,7 @@ impl<T: Terrain> RayTracer<'_, T> {
         rays: &[Ray],
         mip: &MaxMip<'_>,
         out: &mut [Trace],
-        starts: &mut Starts,
+        feed: Feed<'_>,
         c: &Consts,
         pk: &mut Pack,
     ) {
@@ -444,7 +475,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                 }
             }
             if self.surface == Surface::Triangles {
-                hit_mask = self.leaves_triangles8(rays, out, pk, leaf, (ta, tb), &hs);
+                hit_mask = self.leaves_triangles8(rays, out, pk, (leaf, ta, tb), &hs, feed.normals);
             } else {
                 for k in 0..PACKET_LANES {
                     if leaf & (1 << k) == 0 {
@@ -535,7 +566,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                     rays,
                     mip,
                     out,
-                    starts,
+                    feed.starts,
                     k,
                     &mut pk.walks,
                     &mut pk.ray_of,
@@ -558,9 +589,9 @@ impl<T: Terrain> RayTracer<'_, T> {
         rays: &[Ray],
         out: &mut [Trace],
         pk: &Pack,
-        leaf: __mmask8,
-        (ta, tb): (__m512d, __m512d),
+        (leaf, ta, tb): (__mmask8, __m512d, __m512d),
         hs: &[[f64; 4]; PACKET_LANES],
+        normals: &mut Normals,
     ) -> __mmask8 {
         let ln = &pk.ln;
         let corner = |c: usize| -> __m512d {
@@ -629,30 +660,12 @@ impl<T: Terrain> RayTracer<'_, T> {
         );
         let t = _mm512_min_pd(_mm512_max_pd(t, a), b);
         let t: [f64; 8] = cast(_mm512_mask_blend_pd(at_a, t, a));
-        // The unit world normal of `make_hit` in lanes (`triangle_normal`, divided by the
-        // spacing, `DVec3::try_normalize`, then `f32`): a scalar square root here would be
-        // libm's legacy-SSE `sqrtsd`, slow after AVX-512 code.
+        // The triangle's grid-unit normal (`triangle_normal`), normalised later in lanes.
         let neg = _mm512_set1_pd(-0.0);
         let na = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h10, h00), _mm512_sub_pd(h11, h01));
         let nb = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h11, h10), _mm512_sub_pd(h01, h00));
-        let sp = self.spacing;
-        let nx = _mm512_div_pd(_mm512_xor_pd(na, neg), _mm512_set1_pd(sp.x));
-        let ny = _mm512_div_pd(_mm512_xor_pd(nb, neg), _mm512_set1_pd(sp.y));
-        let len2 = _mm512_add_pd(
-            _mm512_add_pd(_mm512_mul_pd(nx, nx), _mm512_mul_pd(ny, ny)),
-            _mm512_mul_pd(one, one),
-        );
-        let rcp = _mm512_div_pd(one, _mm512_sqrt_pd(len2));
-        let ok = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(rcp, _mm512_set1_pd(f64::INFINITY))
-            & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(rcp, zero);
-        let unit = |v: __m512d, fallback: __m512d| -> [f32; 8] {
-            cast(_mm512_cvtpd_ps(_mm512_mask_blend_pd(
-                ok,
-                fallback,
-                _mm512_mul_pd(v, rcp),
-            )))
-        };
-        let (ux, uy, uz) = (unit(nx, zero), unit(ny, zero), unit(one, one));
+        let nx: [f64; 8] = cast(_mm512_xor_pd(na, neg));
+        let ny: [f64; 8] = cast(_mm512_xor_pd(nb, neg));
         let (xs, ys): ([i64; 8], [i64; 8]) = (cast(ln.ix), cast(ln.iy));
         for k in 0..PACKET_LANES {
             let bit = 1u8 << k;
@@ -668,18 +681,83 @@ impl<T: Terrain> RayTracer<'_, T> {
                 continue;
             };
             o.cells += 1;
-            if let (true, Some(&x), Some(&y), Some(&z)) =
-                (hits & bit != 0, ux.get(k), uy.get(k), uz.get(k))
-            {
+            if let (true, Some(&x), Some(&y)) = (hits & bit != 0, nx.get(k), ny.get(k)) {
+                // The normal is written when `normals` is flushed.
                 o.hit = Some(Hit {
                     t: tk,
                     cell: [cx as u32, cy as u32],
                     position: ray.at(tk),
-                    normal: Vec3::new(x, y, z),
+                    normal: Vec3::Z,
                 });
+                if normals.len >= PENDING {
+                    self.flush_normals(normals, out);
+                }
+                if let (Some(pr), Some(px), Some(py)) = (
+                    normals.ray.get_mut(normals.len),
+                    normals.nx.get_mut(normals.len),
+                    normals.ny.get_mut(normals.len),
+                ) {
+                    (*pr, *px, *py) = (r, x, y);
+                    normals.len += 1;
+                }
             }
         }
         hits
+    }
+
+    /// Writes the unit world normal of every hit in `normals` ([`PACKET_LANES`] at a time)
+    /// and empties it: `make_hit`'s operations (divided by the spacing,
+    /// `DVec3::try_normalize`, then `f32`) in lanes. A scalar square root here would also be
+    /// libm's legacy-SSE `sqrtsd`, slow after AVX-512 code.
+    #[target_feature(enable = "avx512f,avx512dq")]
+    #[inline(never)]
+    fn flush_normals(&self, normals: &mut Normals, out: &mut [Trace]) {
+        let zero = _mm512_setzero_pd();
+        let one = _mm512_set1_pd(1.0);
+        let (sx, sy) = (
+            _mm512_set1_pd(self.spacing.x),
+            _mm512_set1_pd(self.spacing.y),
+        );
+        let n = normals.len.min(PENDING);
+        for ((rs, ax), ay) in normals.ray[..n]
+            .chunks(PACKET_LANES)
+            .zip(normals.nx.chunks_exact(PACKET_LANES))
+            .zip(normals.ny.chunks_exact(PACKET_LANES))
+        {
+            let lane = |c: &[f64]| -> __m512d {
+                let mut v = [0.0f64; PACKET_LANES];
+                v.copy_from_slice(c.get(..PACKET_LANES).unwrap_or(&[0.0; PACKET_LANES]));
+                cast(v)
+            };
+            let nx = _mm512_div_pd(lane(ax), sx);
+            let ny = _mm512_div_pd(lane(ay), sy);
+            let len2 = _mm512_add_pd(
+                _mm512_add_pd(_mm512_mul_pd(nx, nx), _mm512_mul_pd(ny, ny)),
+                _mm512_mul_pd(one, one),
+            );
+            let rcp = _mm512_div_pd(one, _mm512_sqrt_pd(len2));
+            let ok = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(rcp, _mm512_set1_pd(f64::INFINITY))
+                & _mm512_cmp_pd_mask::<_CMP_GT_OQ>(rcp, zero);
+            let unit = |v: __m512d, fallback: __m512d| -> [f32; 8] {
+                cast(_mm512_cvtpd_ps(_mm512_mask_blend_pd(
+                    ok,
+                    fallback,
+                    _mm512_mul_pd(v, rcp),
+                )))
+            };
+            let (ux, uy, uz) = (unit(nx, zero), unit(ny, zero), unit(one, one));
+            for (k, &r) in rs.iter().enumerate() {
+                if let (Some(Some(h)), Some(&x), Some(&y), Some(&z)) = (
+                    out.get_mut(r).map(|o| o.hit.as_mut()),
+                    ux.get(k),
+                    uy.get(k),
+                    uz.get(k),
+                ) {
+                    h.normal = Vec3::new(x, y, z);
+                }
+            }
+        }
+        normals.len = 0;
     }
 
     /// Clips the rays from `first` (up to eight) in lanes and finds the node of level `lvl`
