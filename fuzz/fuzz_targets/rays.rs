@@ -76,14 +76,22 @@ fuzz_target!(|data: &[u8]| {
         .trace_march(&ray, &MarchOptions::default().with_samples(64))
         .unwrap();
     // The packet paths give the max-mip trace exactly, alone and among other rays.
+    // Eleven more rays, the fuzzed one shifted, so that the AVX-512 path clips two batches.
     let down = Ray::new(Vec3::new(0.5, 0.5, 1e3), -Vec3::Z).unwrap();
-    let rays = [ray, down, ray];
-    let mut out = [Trace::default(); 3];
+    let mut rays = vec![ray, down, ray];
+    rays.extend((1..12u8).filter_map(|k| {
+        let s = f32::from(k) * 0.37;
+        Ray::new(o + Vec3::new(s, -0.5 * s, 0.25 * s), d).ok()
+    }));
+    let mut out = vec![Trace::default(); rays.len()];
     tracer.trace_maxmip_packet(&rays, &mip, &mut out).unwrap();
     assert_eq!((out[0], out[2]), (c, c));
+    for (r, t) in rays.iter().zip(&out) {
+        assert_eq!(*t, tracer.trace_maxmip(r, &mip).unwrap());
+    }
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512dq") {
-        let mut simd = [Trace::default(); 3];
+        let mut simd = vec![Trace::default(); rays.len()];
         // SAFETY: the CPU has AVX-512F and AVX-512DQ.
         unsafe { tracer.trace_maxmip_packet_avx512(&rays, &mip, &mut simd) }.unwrap();
         assert_eq!(simd, out);

@@ -123,10 +123,11 @@ impl Lanes {
     }
 }
 
-/// Lanes of one pack: the vector state, each lane's walk (for the exact cell test) and ray.
+/// Lanes of one pack: the vector state, each lane's clipped ray (for the cell tests of the surfaces
+/// other than `triangles`) and its index.
 struct Pack {
     ln: Lanes,
-    walks: [Option<LocalRay>; PACKET_LANES],
+    locals: [Option<LocalRay>; PACKET_LANES],
     ray_of: [usize; PACKET_LANES],
     active: __mmask8,
 }
@@ -137,7 +138,7 @@ impl Pack {
     fn new() -> Pack {
         Pack {
             ln: Lanes::new(),
-            walks: [None; PACKET_LANES],
+            locals: [None; PACKET_LANES],
             ray_of: [usize::MAX; PACKET_LANES],
             active: 0,
         }
@@ -190,8 +191,8 @@ impl Starts {
 }
 
 /// Hits of the `triangles` leaf test waiting for their unit normal: the ray and its triangle's
-/// grid-unit normal `(nx, ny, 1)`. Normalised [`PACKET_LANES`] at a time (`Normals::flush`)
-/// rather than in the step, where one or two lanes hit at a time.
+/// grid-unit normal `(nx, ny, 1)`. Normalised [`PACKET_LANES`] at a time
+/// (`RayTracer::flush_normals`) rather than in the step, where one or two lanes hit at a time.
 struct Normals {
     len: usize,
     ray: [usize; PENDING],
@@ -268,7 +269,7 @@ impl<T: Terrain> RayTracer<'_, T> {
     /// # #[cfg(target_arch = "x86_64")] {
     /// use relief_core::ray::{MaxMip, Ray, RayTracer, Trace};
     /// use relief_core::{Heightfield, Surface};
-    /// use glam::{DVec3, Vec3};
+    /// use glam::Vec3;
     /// let s: Vec<f32> = (0..64).map(|i| ((i * 5) % 7) as f32).collect();
     /// let hf = Heightfield::new(&s, 8, 8).unwrap();
     /// let mut buf = vec![0.0; MaxMip::len(8, 8).unwrap()];
@@ -287,7 +288,10 @@ impl<T: Terrain> RayTracer<'_, T> {
     /// }
     /// # }
     /// ```
-    #[target_feature(enable = "avx512f,avx512dq")]
+    // Not under `cfg(doctest)`: rustdoc extracts the doctests of a `#[target_feature]` function
+    // only where the feature is enabled at compile time (rust-lang/rust#49864), so this example
+    // would never run. The crate the doctests link against is built with the attribute.
+    #[cfg_attr(not(doctest), target_feature(enable = "avx512f,avx512dq"))]
     pub fn trace_maxmip_packet_avx512(
         &self,
         rays: &[Ray],
@@ -359,7 +363,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                     out,
                     &mut st,
                     k,
-                    &mut pk.walks,
+                    &mut pk.locals,
                     &mut pk.ray_of,
                     &mut pk.ln,
                     &mut pk.active,
@@ -481,7 +485,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                     if leaf & (1 << k) == 0 {
                         continue;
                     }
-                    let (Some(Some(wk)), Some(&r)) = (pk.walks.get(k), pk.ray_of.get(k)) else {
+                    let (Some(Some(lr)), Some(&r)) = (pk.locals.get(k), pk.ray_of.get(k)) else {
                         continue;
                     };
                     let (Some(ray), Some(o)) = (rays.get(r), out.get_mut(r)) else {
@@ -494,7 +498,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                     };
                     o.cells += 1;
                     let (cx, cy) = (cx as u32, cy as u32);
-                    if let Some(hit) = super::cell::intersect(self.surface, wk, cx, cy, h, a, b) {
+                    if let Some(hit) = super::cell::intersect(self.surface, lr, cx, cy, h, a, b) {
                         o.hit = Some(self.make_hit(ray, cx, cy, hit));
                         hit_mask |= 1 << k;
                     }
@@ -568,7 +572,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                     out,
                     feed.starts,
                     k,
-                    &mut pk.walks,
+                    &mut pk.locals,
                     &mut pk.ray_of,
                     &mut pk.ln,
                     &mut pk.active,
@@ -618,13 +622,21 @@ impl<T: Terrain> RayTracer<'_, T> {
             & _mm512_cmp_pd_mask::<_CMP_LT_OQ>(td, tb);
         // `clamp(0, 1)`: `max(0, x)` keeps `x` on ties and NaN, as `f64::clamp` does.
         let clamp01 = |x: __m512d| _mm512_min_pd(one, _mm512_max_pd(zero, x));
-        // Ray height minus the piece's triangle at `t` (`tri_height` of the upper or lower
-        // triangle, chosen per lane by `upper`).
+        // The slopes along x and y of the upper or lower triangle, chosen per lane by `upper`
+        // (`tri_height`, `unit_normal_tri`).
+        let (lx, ly) = (_mm512_sub_pd(h10, h00), _mm512_sub_pd(h11, h10));
+        let (ux, uy) = (_mm512_sub_pd(h11, h01), _mm512_sub_pd(h01, h00));
+        let slopes = |upper: __mmask8| {
+            (
+                _mm512_mask_blend_pd(upper, lx, ux),
+                _mm512_mask_blend_pd(upper, ly, uy),
+            )
+        };
+        // Ray height minus the piece's triangle at `t`.
         let f = |t: __m512d, upper: __mmask8| {
             let x = clamp01(_mm512_add_pd(px, _mm512_mul_pd(t, dx)));
             let y = clamp01(_mm512_add_pd(py, _mm512_mul_pd(t, dy)));
-            let a = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h10, h00), _mm512_sub_pd(h11, h01));
-            let b = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h11, h10), _mm512_sub_pd(h01, h00));
+            let (a, b) = slopes(upper);
             let s = _mm512_add_pd(_mm512_add_pd(h00, _mm512_mul_pd(x, a)), _mm512_mul_pd(y, b));
             _mm512_sub_pd(_mm512_add_pd(ln.oz, _mm512_mul_pd(t, ln.dz)), s)
         };
@@ -660,10 +672,9 @@ impl<T: Terrain> RayTracer<'_, T> {
         );
         let t = _mm512_min_pd(_mm512_max_pd(t, a), b);
         let t: [f64; 8] = cast(_mm512_mask_blend_pd(at_a, t, a));
-        // The triangle's grid-unit normal (`triangle_normal`), normalised later in lanes.
+        // The triangle's grid-unit normal (`unit_normal_tri`), normalised later in lanes.
         let neg = _mm512_set1_pd(-0.0);
-        let na = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h10, h00), _mm512_sub_pd(h11, h01));
-        let nb = _mm512_mask_blend_pd(upper, _mm512_sub_pd(h11, h10), _mm512_sub_pd(h01, h00));
+        let (na, nb) = slopes(upper);
         let nx: [f64; 8] = cast(_mm512_xor_pd(na, neg));
         let ny: [f64; 8] = cast(_mm512_xor_pd(nb, neg));
         let (xs, ys): ([i64; 8], [i64; 8]) = (cast(ln.ix), cast(ln.iy));
@@ -926,16 +937,16 @@ impl<T: Terrain> RayTracer<'_, T> {
         out: &mut [Trace],
         st: &mut Starts,
         k: usize,
-        walks: &mut [Option<LocalRay>; PACKET_LANES],
+        locals: &mut [Option<LocalRay>; PACKET_LANES],
         ray_of: &mut [usize; PACKET_LANES],
         ln: &mut Lanes,
         active: &mut __mmask8,
     ) {
         let bit: __mmask8 = 1 << (k & 7);
-        let (Some(wk), Some(rk)) = (walks.get_mut(k), ray_of.get_mut(k)) else {
+        let (Some(lk), Some(rk)) = (locals.get_mut(k), ray_of.get_mut(k)) else {
             return;
         };
-        *wk = None;
+        *lk = None;
         // Bounded: each pass hands out one ray (or clips the next batch, which has at least
         // one ray), so `2 * rays.len() + 1` passes cover them all.
         for _ in 0..=rays.len().saturating_mul(2) {
@@ -970,7 +981,7 @@ impl<T: Terrain> RayTracer<'_, T> {
             ln.take(bit, &st.ln, j);
             // The scalar cell tests of the other surfaces take the lane's walk.
             if self.surface != Surface::Triangles {
-                *wk = st.local(j);
+                *lk = st.local(j);
             }
             *rk = r;
             *active |= bit;

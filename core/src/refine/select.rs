@@ -558,7 +558,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// # }
     /// ```
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "popcnt")]
+    // Not under `cfg(doctest)`: rustdoc extracts the doctests of a `#[target_feature]` function
+    // only where the feature is enabled at compile time (rust-lang/rust#49864), so this example
+    // would never run. The crate the doctests link against is built with the attribute.
+    #[cfg_attr(not(doctest), target_feature(enable = "popcnt"))]
     pub fn triangles_popcnt(
         &self,
         scratch: &mut [u64],
