@@ -91,7 +91,11 @@ fn cells() -> vec2<f32> {
     return vec2<f32>(f32(max(p.image.z - 1u, 1u)), f32(max(p.image.w - 1u, 1u)));
 }
 
-// The ray clipped to the domain prism and the height range (RayTracer::local).
+// The ray clipped to the domain prism and the height range (RayTracer::local). Slabs here
+// divide by the direction component rather than multiply by its reciprocal: a subnormal
+// component (not flushed) then gives +-inf or 0 parameters, never the `0 * inf = NaN` that the
+// CPU's reciprocals had to fold away (HARD_CASES.md, subnormal direction components); where the
+// GPU flushes subnormals, `dc == 0.0` holds and the zero branch takes the ray.
 fn clip(o: vec3<f32>, d: vec3<f32>) -> LRay {
     var r: LRay;
     r.o = o;
