@@ -7,7 +7,9 @@ same depth image. No Embree run: for changes to the walk, where the image must n
 usage (from the repository root, with the venv of embree_rays.sh, which has numpy and embreex):
     /tmp/venv-embree/bin/python bench-peers/maxmip_ab.py BIN_A BIN_B [BIN_A BIN_B ...]
 env: PACKET=1 times the AVX-512 packets (default: ray by ray, `--no-packet`); ONLY="puget fuji"
-limits the DEMs. List a binary twice, alternated, to see the machine's drift.
+limits the DEMs; SURFACE=bilinear (plane, nearest) traces another surface; SHOW=1 prints each
+view's `relief trace` command (for profiling one view by hand); the DEMs' raw files are kept
+in the temporary folder it names. List a binary twice, alternated, to see the machine's drift.
 """
 import hashlib
 import json
@@ -67,9 +69,11 @@ def main():
                     b, "trace", "--dem", raw, "--format", "raw-f32", "--width", str(gw),
                     "--height", str(gh), "--dx", dx, "--dy", dy, "--eye", fmt(eye),
                     "--target", fmt(target), "--fov", str(fov), "--size", "384x256",
-                    "--method", "maxmip", "--surface", "triangles", "--threads", "1",
+                    "--method", "maxmip", "--surface", os.environ.get("SURFACE", "triangles"), "--threads", "1",
                     "--out", out, "--json", "--chunk-rays", "4096", "--chunk-reps", "9",
                 ] + ([] if packet else ["--no-packet"])
+                if os.environ.get("SHOW") == "1":
+                    print("    " + " ".join(cmd), flush=True)
                 rj = json.loads(subprocess.run(cmd, check=True, capture_output=True).stdout)
                 with open(out, "rb") as f:
                     images.add(hashlib.md5(f.read()).hexdigest())
