@@ -468,7 +468,6 @@ impl<T: Terrain> RayTracer<'_, T> {
         let leaf = inside & lvl0;
         let mut hit_mask: __mmask8 = 0;
         if leaf != 0 {
-            let (tas, tbs): ([f64; 8], [f64; 8]) = (cast(ta), cast(tb));
             let (xs, ys): ([i64; 8], [i64; 8]) = (cast(ix), cast(iy));
             // Corner heights of every leaf lane first, then the exact tests: the sample loads
             // (usually cache misses) of different lanes overlap.
@@ -481,6 +480,7 @@ impl<T: Terrain> RayTracer<'_, T> {
             if self.surface == Surface::Triangles {
                 hit_mask = self.leaves_triangles8(rays, out, pk, (leaf, ta, tb), &hs, feed.normals);
             } else {
+                let (tas, tbs): ([f64; 8], [f64; 8]) = (cast(ta), cast(tb));
                 for k in 0..PACKET_LANES {
                     if leaf & (1 << k) == 0 {
                         continue;
@@ -947,9 +947,9 @@ impl<T: Terrain> RayTracer<'_, T> {
             return;
         };
         *lk = None;
-        // Bounded: each pass hands out one ray (or clips the next batch, which has at least
-        // one ray), so `2 * rays.len() + 1` passes cover them all.
-        for _ in 0..=rays.len().saturating_mul(2) {
+        // Bounded: each pass hands out one ray (clipping the next batch first where the last is
+        // used up), so `rays.len() + 1` passes cover them all.
+        for _ in 0..=rays.len() {
             if st.cur >= st.len {
                 let first = st.first + st.len;
                 if first >= rays.len() {
@@ -979,7 +979,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                 }
             }
             ln.take(bit, &st.ln, j);
-            // The scalar cell tests of the other surfaces take the lane's walk.
+            // The scalar cell tests of the other surfaces take the lane's clipped ray.
             if self.surface != Surface::Triangles {
                 *lk = st.local(j);
             }
