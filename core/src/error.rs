@@ -103,6 +103,18 @@ pub enum Error {
         /// Row of the first uncovered sample.
         y: u32,
     },
+    /// The operation does not support this input (for example uninitialised output buffers
+    /// for a list that reads its output back).
+    Unsupported {
+        /// What is not supported.
+        what: &'static str,
+    },
+    /// An internal consistency check failed: a bug in `relief-core`, reported instead of a
+    /// result that would break a documented guarantee.
+    Internal {
+        /// Which check.
+        what: &'static str,
+    },
 }
 
 impl fmt::Display for Error {
@@ -153,6 +165,10 @@ impl fmt::Display for Error {
                     f,
                     "no cell covers sample ({x}, {y}): the cells do not tile the domain"
                 )
+            }
+            Error::Unsupported { what } => write!(f, "not supported: {what}"),
+            Error::Internal { what } => {
+                write!(f, "internal check failed (a bug in relief-core): {what}")
             }
         }
     }

@@ -2,7 +2,8 @@
 //! Invariants: view-independent meshes are crack-free (the std crack checker of relief-tests) and
 //! their measured vertical error is at most E; view-dependent meshes without culling are
 //! crack-free, with culling they have no flipped or overlapping triangles; a buffer one element
-//! too small is an error, never a truncated mesh.
+//! too small is an error, never a truncated mesh; `triangles_uninit` writes what `triangles`
+//! writes.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -48,6 +49,23 @@ fuzz_target!(|data: &[u8]| {
     check_mesh(v, t, &grid).unwrap();
     let measured = vertical_error(&hf, v, t, &mut vec![0; coverage_len(w, h)]).unwrap();
     assert!(measured <= f64::from(e), "measured {measured} > E = {e}");
+    // Into uninitialised capacity: the same vertices and triangles (bit for bit).
+    let (mut uv, mut ut) = (
+        Vec::<[f32; 3]>::with_capacity(c.vertices),
+        Vec::<[u32; 3]>::with_capacity(c.triangles),
+    );
+    let cu = r
+        .triangles_uninit(&mut scratch, uv.spare_capacity_mut(), ut.spare_capacity_mut())
+        .unwrap();
+    assert_eq!(cu, c);
+    // SAFETY: `triangles_uninit` wrote the first `c.vertices` and `c.triangles` elements.
+    unsafe {
+        uv.set_len(c.vertices);
+        ut.set_len(c.triangles);
+    }
+    let bits = |x: &[[f32; 3]]| x.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
+    assert_eq!(bits(&uv), bits(v));
+    assert_eq!(ut, t);
     // One element too small: an error, not a silent truncation.
     if c.triangles > 0 {
         let mut short = vec![[0u32; 3]; c.triangles - 1];

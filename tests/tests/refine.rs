@@ -6,8 +6,8 @@ use proptest::prelude::*;
 use relief_core::glam::Vec3;
 use relief_core::refine::{
     coverage_len, hierarchy_len, pack_records, preprocess, preprocess_compact, preprocess_with,
-    records_len, scratch_len, strip_bound, vertical_error, Criterion, Hierarchy, PreprocessOptions,
-    RecordLayout, Refiner, VertexRecord, View,
+    records_len, scratch_len, strip_bound, vertical_error, Criterion, FrameCounts, Hierarchy,
+    PreprocessOptions, RecordLayout, Refiner, VertexRecord, View,
 };
 use relief_core::{Camera, Error, Heightfield, Scale, Terrain};
 use relief_io::{read_dem, Format, ReadOptions};
@@ -27,6 +27,7 @@ fn refine<T: Terrain>(h: &Hierarchy<'_>, t: &T, c: Criterion) -> Mesh {
     let mut tr = vec![[0; 3]; n.triangles];
     assert_eq!(r.triangles(&mut s, &mut v, &mut tr).unwrap(), n);
     same_with_popcnt(&r, &mut s, &v, &tr);
+    same_uninit(&r, &mut s, &v, &tr, matches!(c, Criterion::MaxError(_)));
     same_as_grid_triangles(&r, t, &v, &tr);
     Mesh { v, t: tr }
 }
@@ -59,6 +60,71 @@ fn same_as_grid_triangles<T: Terrain>(
             r.grid_triangles(&mut g[..short]),
             Err(Error::BufferTooSmall { .. })
         ));
+    }
+}
+
+/// `triangles_uninit` and `triangles_uninit_popcnt` (where the CPU has popcnt) write exactly
+/// what `triangles` wrote into the first elements of uninitialised buffers and nothing past
+/// them (buffers two elements longer, pre-filled with sentinels so the test can read them all);
+/// one element short, they return `triangles`' error and write nothing; the view-dependent
+/// criterion is `Unsupported`.
+fn same_uninit<T: Terrain>(
+    r: &Refiner<'_, '_, T>,
+    s: &mut [u64],
+    v: &[[f32; 3]],
+    t: &[[u32; 3]],
+    view_independent: bool,
+) {
+    use std::mem::MaybeUninit;
+    const SV: [f32; 3] = [-7.0; 3];
+    const ST: [u32; 3] = [u32::MAX - 1; 3];
+    type Out<'a> = (
+        &'a mut [MaybeUninit<[f32; 3]>],
+        &'a mut [MaybeUninit<[u32; 3]>],
+    );
+    type Call<'r> = Box<dyn Fn(&mut [u64], Out<'_>) -> Result<FrameCounts, Error> + 'r>;
+    let mut calls: Vec<Call<'_>> = vec![Box::new(|s, (v, t)| r.triangles_uninit(s, v, t))];
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("popcnt") {
+        // SAFETY: the CPU has popcnt.
+        calls.push(Box::new(|s, (v, t)| unsafe {
+            r.triangles_uninit_popcnt(s, v, t)
+        }));
+    }
+    for call in &calls {
+        for short in [false, !t.is_empty()] {
+            let (nv, nt) = (v.len() + 2, if short { t.len() - 1 } else { t.len() + 2 });
+            let mut v2 = vec![MaybeUninit::new(SV); nv];
+            let mut t2 = vec![MaybeUninit::new(ST); nt];
+            let got = call(s, (&mut v2, &mut t2));
+            // SAFETY: every element was initialised with a sentinel above.
+            let (v2, t2): (Vec<[f32; 3]>, Vec<[u32; 3]>) = unsafe {
+                (
+                    v2.iter().map(|x| x.assume_init()).collect(),
+                    t2.iter().map(|x| x.assume_init()).collect(),
+                )
+            };
+            let untouched = v2.iter().all(|x| *x == SV) && t2.iter().all(|x| *x == ST);
+            if !view_independent {
+                assert!(matches!(got, Err(Error::Unsupported { .. })), "{got:?}");
+                assert!(untouched);
+            } else if short {
+                let mut t3 = vec![ST; nt];
+                assert_eq!(got, r.triangles(s, &mut v2.clone(), &mut t3));
+                assert!(matches!(got, Err(Error::BufferTooSmall { .. })));
+                assert!(untouched);
+            } else {
+                let c = got.unwrap();
+                assert_eq!((c.vertices, c.triangles), (v.len(), t.len()));
+                let bits = |x: &[[f32; 3]]| -> Vec<[u32; 3]> {
+                    x.iter().map(|p| p.map(f32::to_bits)).collect()
+                };
+                assert_eq!(bits(&v2[..v.len()]), bits(v));
+                assert_eq!(&t2[..t.len()], t);
+                assert!(v2[v.len()..].iter().all(|x| *x == SV));
+                assert!(t2[t.len()..].iter().all(|x| *x == ST));
+            }
+        }
     }
 }
 

@@ -4,6 +4,7 @@
 #![no_std]
 #![allow(clippy::missing_safety_doc)]
 
+use core::mem::MaybeUninit;
 use core::slice;
 use relief_core::glam::{Vec2, Vec3, Vec4};
 use relief_core::{
@@ -230,7 +231,10 @@ pub unsafe extern "C" fn pc_rays(
             sum += out.iter().map(|t| t.steps as f64).sum::<f64>();
         }
         #[cfg(target_arch = "x86_64")]
-        if tracer.trace_maxmip_packet_avx512(part, &m, &mut out).is_ok() {
+        if tracer
+            .trace_maxmip_packet_avx512(part, &m, &mut out)
+            .is_ok()
+        {
             sum += out.iter().map(|t| t.cells as f64).sum::<f64>();
         }
     }
@@ -266,8 +270,8 @@ pub extern "C" fn pc_grid_line(s: &[f64; 2], d: &[f64; 2], e: &[f64; 2], cells: 
 // ---- Refinement (core::refine) ----
 
 use relief_core::refine::{
-    check_records, pack_records, preprocess, preprocess_compact, records_hierarchy,
-    vertical_error, Criterion, MorphVertex, RecordLayout, Refiner, VertexRecord, View,
+    check_records, pack_records, preprocess, preprocess_compact, records_hierarchy, vertical_error,
+    Criterion, MorphVertex, RecordLayout, Refiner, VertexRecord, View,
 };
 
 /// Preprocessing (both layouts) and every refinement output, view-independent or view-dependent.
@@ -345,6 +349,25 @@ pub unsafe extern "C" fn pc_refine(
             view_mut(tris, tris_len),
         ) {
             acc += c.triangles as f64;
+        }
+        let (uv, ut) = (
+            verts.cast::<MaybeUninit<[f32; 3]>>(),
+            tris.cast::<MaybeUninit<[u32; 3]>>(),
+        );
+        if let Ok(c) = r.triangles_uninit(
+            view_mut(scratch, scratch_len),
+            view_mut(uv, verts_len),
+            view_mut(ut, tris_len),
+        ) {
+            acc += c.triangles as f64;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let Ok(c) = r.triangles_uninit_popcnt(
+            view_mut(scratch, scratch_len),
+            view_mut(uv, verts_len),
+            view_mut(ut, tris_len),
+        ) {
+            acc += c.vertices as f64;
         }
         acc += r
             .grid_triangles(view_mut(tris, tris_len))

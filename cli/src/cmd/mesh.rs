@@ -349,24 +349,33 @@ pub fn run(a: &MeshArgs) -> CliResult {
     let refiner = Refiner::new(&hier, &hf, criterion)?;
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let t1 = Instant::now();
-    // Fresh output buffers, zeroed by the allocator. View-independent: sized by `count` first
-    // (one pass over the errors, about 0.5 ms on a 1025^2 grid), as martini's getMesh counts
-    // before it allocates. View-dependent: bound-sized, since counting would be a second
-    // traversal, then cut to the counts; only the pages the mesh fills are touched. (Huge pages
-    // for these buffers were tried: with the kernel's `defrag = madvise` each 2 MiB fault may
-    // compact memory, and the pass took 1-6x longer.)
+    // Fresh output buffers. View-independent: sized by `count` first (one pass over the
+    // errors, about 0.3 ms on a 1025^2 grid), as martini's getMesh counts before it allocates,
+    // and filled uninitialised (`triangles_uninit`: not zeroed first, which cost 1.2-1.7 ms of
+    // the peers' protocol below on Puget at E = 1 and 5 m). View-dependent: bound-sized and
+    // zeroed by the allocator (its list renumbers in place, so it reads its output back), since
+    // counting would be a second traversal, then cut to the counts; only the pages the mesh
+    // fills are touched. (Huge pages for these buffers were tried: with the kernel's
+    // `defrag = madvise` each 2 MiB fault may compact memory, and the pass took 1-6x longer.)
     let view_independent = criterion_kind == "view-independent";
-    let sizes = |scratch: &mut [u64]| -> CliResult<(usize, usize)> {
-        Ok(if view_independent {
+    type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>, FrameCounts);
+    let fresh = |scratch: &mut [u64]| -> CliResult<Mesh> {
+        if view_independent {
             let c = refiner.count(scratch)?;
-            (c.vertices, c.triangles)
+            let (mut v, mut t) = (
+                Vec::with_capacity(c.vertices),
+                Vec::with_capacity(c.triangles),
+            );
+            let c = extract_uninit(&refiner, scratch, &mut v, &mut t)?;
+            Ok((v, t, c))
         } else {
-            (vertex_bound(w, h), triangle_bound(w, h))
-        })
+            let mut v = vec![[0.0f32; 3]; vertex_bound(w, h)];
+            let mut t = vec![[0u32; 3]; triangle_bound(w, h)];
+            let c = extract(&refiner, scratch, &mut v, &mut t)?;
+            Ok((v, t, c))
+        }
     };
-    let fresh = |(nv, nt): (usize, usize)| (vec![[0.0f32; 3]; nv], vec![[0u32; 3]; nt]);
-    let (mut vertices, mut triangles) = fresh(sizes(&mut scratch)?);
-    let counts = extract(&refiner, &mut scratch, &mut vertices, &mut triangles)?;
+    let (mut vertices, mut triangles, counts) = fresh(&mut scratch)?;
     let refine_ms = t1.elapsed().as_secs_f64() * 1e3;
     // A library user refines every frame into the same caller buffers: the same extraction
     // again into the now-resident buffers (fastest of 3), reported next to refine_ms (which
@@ -387,8 +396,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
     let mut refine_fresh_repeat_ms = f64::INFINITY;
     for _ in 0..3 {
         let t = Instant::now();
-        let (mut v, mut tr) = fresh(sizes(&mut scratch)?);
-        extract(&refiner, &mut scratch, &mut v, &mut tr)?;
+        let (v, tr, _) = fresh(&mut scratch)?;
         drop((v, tr)); // freed inside the timing, before the next call allocates
         refine_fresh_repeat_ms = refine_fresh_repeat_ms.min(t.elapsed().as_secs_f64() * 1e3);
     }
@@ -480,6 +488,42 @@ fn extract<T: Terrain>(
         return Ok(unsafe { r.triangles_popcnt(scratch, vertices, triangles) }?);
     }
     Ok(r.triangles(scratch, vertices, triangles)?)
+}
+
+/// The view-independent list into the spare capacity of `vertices` and `triangles` (empty
+/// vectors with at least the counts of [`Refiner::count`] reserved), which are then set to the
+/// counts: nothing is zeroed first.
+fn extract_uninit<T: Terrain>(
+    r: &Refiner<'_, '_, T>,
+    scratch: &mut [u64],
+    vertices: &mut Vec<[f32; 3]>,
+    triangles: &mut Vec<[u32; 3]>,
+) -> CliResult<FrameCounts> {
+    vertices.clear();
+    triangles.clear();
+    let (v, t) = (
+        vertices.spare_capacity_mut(),
+        triangles.spare_capacity_mut(),
+    );
+    #[cfg(target_arch = "x86_64")]
+    let c = if std::is_x86_feature_detected!("popcnt") {
+        // SAFETY: the CPU has popcnt.
+        unsafe { r.triangles_uninit_popcnt(scratch, v, t) }?
+    } else {
+        r.triangles_uninit(scratch, v, t)?
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let c = r.triangles_uninit(scratch, v, t)?;
+    // SAFETY: on `Ok(c)`, `triangles_uninit` has written the first `c.vertices` elements of the
+    // vertices' spare capacity and the first `c.triangles` of the triangles' (it checks its
+    // counts against its selection and returns an error otherwise), and the capacities hold them
+    // (it returns `BufferTooSmall` otherwise). Both vectors were empty, so those are their first
+    // elements.
+    unsafe {
+        vertices.set_len(c.vertices);
+        triangles.set_len(c.triangles);
+    }
+    Ok(c)
 }
 
 /// A mapped records file must belong to this grid: its size and layout, its spacing and

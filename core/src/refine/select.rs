@@ -7,6 +7,7 @@ use super::grid::{Class, RefineGrid};
 use super::layout::{interleaved_coords, interleaved_index, record_index};
 use super::{ErrorStore, Hierarchy, VertexRecord};
 use crate::{Camera, Error, Terrain};
+use core::mem::MaybeUninit;
 use glam::Vec4;
 
 /// What a vertex must satisfy to be refined.
@@ -490,16 +491,67 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         if self.view.is_some() {
             return self.triangles_view(scratch, vertices, triangles);
         }
-        if self.square_vi() {
-            let (sel, mut vs, depth) = self.vi_square_start(scratch, vertices, triangles)?;
-            for (l, r, a) in vs.roots() {
-                vs.walk(l, r, a, depth);
-            }
-            self.release(scratch, sel);
-            return Ok(sel.counts);
+        self.triangles_vi(scratch, vertices, triangles)
+    }
+
+    /// [`Self::triangles`] into uninitialised buffers, for the view-independent criterion:
+    /// fresh output buffers (a `Vec`'s spare capacity) need not be zeroed first, which on a
+    /// mesh of a million triangles costs about as much as a fifth of the extraction. On `Ok(c)`
+    /// the first `c.vertices` elements of `vertices` and the first `c.triangles` of `triangles`
+    /// have been written (the extraction checks its own counts against the selection's and
+    /// returns [`Error::Internal`] rather than `Ok` if they ever differ), so the caller may
+    /// treat them as initialised; nothing else is written. [`Error::BufferTooSmall`] as for
+    /// [`Self::triangles`] (nothing written); [`Error::Unsupported`] for the view-dependent
+    /// criterion, whose list renumbers its triangles in place and so reads its output back.
+    ///
+    /// ```
+    /// # use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner};
+    /// # use relief_core::Heightfield;
+    /// let hf = Heightfield::new(&[0.0f32, 1.0, 2.0, 3.0], 2, 2).unwrap();
+    /// let mut e = [0u16; 4];
+    /// let h = preprocess_compact(&hf, &mut e).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(0.0)).unwrap();
+    /// let mut s = vec![0; scratch_len(2, 2)];
+    /// let c = rf.count(&mut s).unwrap();
+    /// let mut v: Vec<[f32; 3]> = Vec::with_capacity(c.vertices);
+    /// let mut t: Vec<[u32; 3]> = Vec::with_capacity(c.triangles);
+    /// let c = rf
+    ///     .triangles_uninit(&mut s, v.spare_capacity_mut(), t.spare_capacity_mut())
+    ///     .unwrap();
+    /// // SAFETY: `triangles_uninit` wrote the first `c.vertices` and `c.triangles` elements.
+    /// unsafe {
+    ///     v.set_len(c.vertices);
+    ///     t.set_len(c.triangles);
+    /// }
+    /// assert_eq!(t, [[3, 0, 1], [0, 3, 2]]);
+    /// assert_eq!(v[3], [1.0, 1.0, 3.0]);
+    /// ```
+    pub fn triangles_uninit(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [MaybeUninit<[f32; 3]>],
+        triangles: &mut [MaybeUninit<[u32; 3]>],
+    ) -> Result<FrameCounts, Error> {
+        if self.view.is_some() {
+            return Err(UNINIT_VIEW);
         }
-        let sel = self.select_into(scratch, vertices, triangles.len())?;
-        let c = sel.counts;
+        self.triangles_vi(scratch, vertices, triangles)
+    }
+
+    /// The view-independent list into either kind of slot ([`Slot`]): what [`Self::triangles`]
+    /// and [`Self::triangles_uninit`] run.
+    #[inline(always)]
+    fn triangles_vi<V: Slot<[f32; 3]>, O: Slot<[u32; 3]>>(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [V],
+        triangles: &mut [O],
+    ) -> Result<FrameCounts, Error> {
+        if self.square_vi() {
+            let walk = |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk(l, r, a, depth);
+            return self.vi_square(scratch, vertices, triangles, walk);
+        }
+        let (sel, written) = self.select_into(scratch, vertices, triangles.len())?;
         let (bits, prefix) = split_scratch(scratch, self.g.len());
         let mut sink = ListSink {
             bits,
@@ -510,7 +562,6 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 n: 0,
             },
         };
-        // View-independent (the view-dependent criterion returned above).
         let n = self.g.side() as i64;
         for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
             if self.g.is_square() {
@@ -519,8 +570,29 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 self.walk_vi::<_, false>(&mut sink, bits, l, r, a, 0);
             }
         }
+        let nt = sink.out.n;
         self.release(scratch, sel);
-        Ok(c)
+        checked(sel.counts, written, nt)
+    }
+
+    /// [`Self::triangles_vi`] with the square grid's walk compiled with `popcnt` (x86-64 only;
+    /// the CPU must have the instruction).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "popcnt")]
+    #[inline]
+    fn triangles_vi_popcnt<V: Slot<[f32; 3]>, O: Slot<[u32; 3]>>(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [V],
+        triangles: &mut [O],
+    ) -> Result<FrameCounts, Error> {
+        if self.square_vi() {
+            // The closure inherits the function's target feature.
+            let walk =
+                |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk_popcnt(l, r, a, depth);
+            return self.vi_square(scratch, vertices, triangles, walk);
+        }
+        self.triangles_vi(scratch, vertices, triangles)
     }
 
     /// [`Self::triangles`] compiled with the x86-64 `popcnt` instruction (x86-64 only): the same
@@ -572,15 +644,49 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             // Inlined here, so the renumbering's rank counts use the instruction.
             return self.triangles_view(scratch, vertices, triangles);
         }
-        if self.square_vi() {
-            let (sel, mut vs, depth) = self.vi_square_start(scratch, vertices, triangles)?;
-            for (l, r, a) in vs.roots() {
-                vs.walk_popcnt(l, r, a, depth);
-            }
-            self.release(scratch, sel);
-            return Ok(sel.counts);
+        self.triangles_vi_popcnt(scratch, vertices, triangles)
+    }
+
+    /// [`Self::triangles_uninit`] compiled with the x86-64 `popcnt` instruction, as
+    /// [`Self::triangles_popcnt`] is [`Self::triangles`]: the same results, buffer for buffer.
+    ///
+    /// # Safety
+    ///
+    /// As for [`Self::triangles_popcnt`]: the CPU must support `popcnt`.
+    ///
+    /// ```
+    /// # #[cfg(target_arch = "x86_64")] {
+    /// # use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner};
+    /// # use relief_core::Heightfield;
+    /// use core::mem::MaybeUninit;
+    /// let hf = Heightfield::new(&[0.0f32, 1.0, 2.0, 3.0], 2, 2).unwrap();
+    /// let mut e = [0u16; 4];
+    /// let h = preprocess_compact(&hf, &mut e).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(0.0)).unwrap();
+    /// let (mut v, mut t) = ([MaybeUninit::uninit(); 4], [MaybeUninit::uninit(); 2]);
+    /// if std::is_x86_feature_detected!("popcnt") {
+    ///     let mut s = vec![0; scratch_len(2, 2)];
+    ///     // SAFETY: the CPU has popcnt.
+    ///     let c = unsafe { rf.triangles_uninit_popcnt(&mut s, &mut v, &mut t) }.unwrap();
+    ///     assert_eq!((c.vertices, c.triangles), (4, 2));
+    ///     // SAFETY: the first two triangles were written (the count).
+    ///     assert_eq!(unsafe { t[1].assume_init() }, [0, 3, 2]);
+    /// }
+    /// # }
+    /// ```
+    #[cfg(target_arch = "x86_64")]
+    // Under `cfg_attr(not(doctest))` for the reason given at `triangles_popcnt`.
+    #[cfg_attr(not(doctest), target_feature(enable = "popcnt"))]
+    pub fn triangles_uninit_popcnt(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [MaybeUninit<[f32; 3]>],
+        triangles: &mut [MaybeUninit<[u32; 3]>],
+    ) -> Result<FrameCounts, Error> {
+        if self.view.is_some() {
+            return Err(UNINIT_VIEW);
         }
-        self.triangles(scratch, vertices, triangles)
+        self.triangles_vi_popcnt(scratch, vertices, triangles)
     }
 
     /// The frame's triangles as indices into the whole sample grid, `y * width + x`,
@@ -740,18 +846,37 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         self.g.is_square() && (self.g.len() as u64) <= IDX
     }
 
+    /// View-independent extraction of a square grid ([`ViSquare`]) with `walk` as its
+    /// traversal (the plain or the `popcnt` build).
+    #[inline(always)]
+    fn vi_square<V: Slot<[f32; 3]>, O: Slot<[u32; 3]>>(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [V],
+        triangles: &mut [O],
+        walk: impl Fn(&mut ViSquare<'_, '_, O>, u64, u64, u64, u32),
+    ) -> Result<FrameCounts, Error> {
+        let (sel, written, mut vs, depth) = self.vi_square_start(scratch, vertices, triangles)?;
+        for (l, r, a) in vs.roots() {
+            walk(&mut vs, l, r, a, depth);
+        }
+        let n = vs.out.n;
+        self.release(scratch, sel);
+        checked(sel.counts, written, n)
+    }
+
     /// View-independent extraction of a square grid up to the traversal: selects, checks the
     /// buffers (nothing written when one is short), writes the vertices and returns the counts,
     /// the traversal state and the roots' depth. The kept set is the bitmap (1 bit per vertex,
     /// cache-resident), so the traversal never touches the error array.
     #[inline(always)]
-    fn vi_square_start<'a, 'o>(
+    fn vi_square_start<'a, 'o, V: Slot<[f32; 3]>, O: Slot<[u32; 3]>>(
         &self,
         scratch: &'a mut [u64],
-        vertices: &mut [[f32; 3]],
-        triangles: &'o mut [[u32; 3]],
-    ) -> Result<(Selection, ViSquare<'a, 'o>, u32), Error> {
-        let sel = self.select_into(scratch, vertices, triangles.len())?;
+        vertices: &mut [V],
+        triangles: &'o mut [O],
+    ) -> Result<(Selection, usize, ViSquare<'a, 'o, O>, u32), Error> {
+        let (sel, written) = self.select_into(scratch, vertices, triangles.len())?;
         let c = sel.counts;
         let (bits, prefix) = split_scratch(scratch, self.g.len());
         let vs = ViSquare {
@@ -764,26 +889,27 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             },
             side: self.g.side() as u64,
         };
-        Ok((sel, vs, self.g.levels()))
+        Ok((sel, written, vs, self.g.levels()))
     }
 
     /// View-independent extraction up to the traversal: selects, checks both buffers (nothing
-    /// written and the scratch released when one is short) and writes the vertices.
+    /// written and the scratch released when one is short) and writes the vertices; returns
+    /// the selection and how many vertices were written.
     #[inline(always)]
-    fn select_into(
+    fn select_into<V: Slot<[f32; 3]>>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [[f32; 3]],
+        vertices: &mut [V],
         triangle_room: usize,
-    ) -> Result<Selection, Error> {
+    ) -> Result<(Selection, usize), Error> {
         let sel = self.select(scratch)?;
         let c = sel.counts;
         if let Err(e) = need(c.vertices, vertices.len()).and(need(c.triangles, triangle_room)) {
             self.release(scratch, sel);
             return Err(e);
         }
-        self.write_vertices(scratch, sel, vertices);
-        Ok(sel)
+        let written = self.write_vertices(scratch, sel, vertices);
+        Ok((sel, written))
     }
 
     /// View-dependent list in one traversal: triangles are written with grid indices while the
@@ -1113,46 +1239,51 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     }
 
     /// Writes the positions of the selected vertices, in vertex order: the touched words of
-    /// sparse marks, every word of dense ones.
-    pub(crate) fn write_vertices(
+    /// sparse marks, every word of dense ones. Returns how many it wrote.
+    pub(crate) fn write_vertices<V: Slot<[f32; 3]>>(
         &self,
         scratch: &mut [u64],
         sel: Selection,
-        vertices: &mut [[f32; 3]],
-    ) {
+        vertices: &mut [V],
+    ) -> usize {
         let Ok(m) = marks(scratch, self.g.len()) else {
-            return;
+            return 0;
         };
-        self.write_vertices_in(m.bits, m.selected_words(sel.sparse), vertices);
+        self.write_vertices_in(m.bits, m.selected_words(sel.sparse), vertices)
     }
 
-    /// Writes the positions of the marked vertices of bitmap words `words` (increasing).
+    /// Writes the positions of the marked vertices of bitmap words `words` (increasing);
+    /// returns how many it wrote (all of them, unless `vertices` is shorter).
     /// View-dependent refinement from records takes the heights from the records (the terrain's
     /// heights, packed): the traversal has just read them, while the terrain's rows are cold
     /// pages on a large grid.
-    pub(crate) fn write_vertices_in(
+    pub(crate) fn write_vertices_in<V: Slot<[f32; 3]>>(
         &self,
         bits: &[u64],
         words: impl Iterator<Item = usize>,
-        vertices: &mut [[f32; 3]],
-    ) {
+        vertices: &mut [V],
+    ) -> usize {
         let o = self.order();
         match self.h.errors {
             ErrorStore::Records(recs, _) if o.hierarchical() => {
                 // Bit k is record k: its height without an index computation.
                 let s = self.h.scale();
+                let len = vertices.len();
                 let mut slots = vertices.iter_mut();
-                for wi in words {
+                'words: for wi in words {
                     let mut b = bits.get(wi).copied().unwrap_or(0);
                     while b != 0 {
                         let k = wi * 64 + b.trailing_zeros() as usize;
                         b &= b - 1;
-                        let Some(v) = slots.next() else { return };
+                        let Some(v) = slots.next() else {
+                            break 'words;
+                        };
                         let (x, y) = o.point(k);
                         let z = recs.get(k).map_or_else(|| self.t.local_z(x, y), |r| r.z);
-                        *v = [x as f32 * s.dx, y as f32 * s.dy, z + s.z_offset];
+                        v.set([x as f32 * s.dx, y as f32 * s.dy, z + s.z_offset]);
                     }
                 }
+                len - slots.len()
             }
             ErrorStore::Records(recs, layout) if self.view.is_some() => {
                 self.write_positions(bits, words, vertices, |x, y| {
@@ -1166,17 +1297,18 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
     /// [`Self::write_vertices_in`] with local heights from `z`.
     #[inline(always)]
-    fn write_positions(
+    fn write_positions<V: Slot<[f32; 3]>>(
         &self,
         bits: &[u64],
         words: impl Iterator<Item = usize>,
-        vertices: &mut [[f32; 3]],
+        vertices: &mut [V],
         z: impl Fn(u32, u32) -> f32,
-    ) {
+    ) -> usize {
         let w = (self.g.width() as usize).max(1); // never 0; the max keeps a panic path out
         let s = self.h.scale();
+        let len = vertices.len();
         let mut slots = vertices.iter_mut();
-        for wi in words {
+        'words: for wi in words {
             let word = bits.get(wi).copied().unwrap_or(0);
             if word == 0 {
                 continue;
@@ -1197,11 +1329,14 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                     y += 1;
                     x = bit - base;
                 }
-                let Some(v) = slots.next() else { return };
+                let Some(v) = slots.next() else {
+                    break 'words;
+                };
                 let (xu, yu) = (x as u32, y as u32);
-                *v = [xu as f32 * s.dx, yu as f32 * s.dy, z(xu, yu) + s.z_offset];
+                v.set([xu as f32 * s.dx, yu as f32 * s.dy, z(xu, yu) + s.z_offset]);
             }
         }
+        len - slots.len()
     }
 
     /// The bit order of this frame's marks (see [`BitOrder`]).
@@ -1552,6 +1687,26 @@ fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Err
     })
 }
 
+/// What [`Refiner::triangles_uninit`] returns for the view-dependent criterion.
+const UNINIT_VIEW: Error = Error::Unsupported {
+    what: "uninitialised output for the view-dependent criterion (its list renumbers in place)",
+};
+
+/// `Ok(counts)` if the extraction wrote exactly the selection's counts of vertices and
+/// triangles, which the callers of [`Refiner::triangles_uninit`] rely on to treat those elements
+/// as initialised; [`Error::Internal`] otherwise (never seen: the tests and fuzzing compare the
+/// counts with independent ones).
+#[inline(always)]
+fn checked(counts: FrameCounts, vertices: usize, triangles: usize) -> Result<FrameCounts, Error> {
+    if (vertices, triangles) == (counts.vertices, counts.triangles) {
+        Ok(counts)
+    } else {
+        Err(Error::Internal {
+            what: "extraction wrote other counts than its selection",
+        })
+    }
+}
+
 pub(crate) fn need(needed: usize, actual: usize) -> Result<(), Error> {
     if actual < needed {
         Err(Error::BufferTooSmall { needed, actual })
@@ -1863,17 +2018,39 @@ pub(crate) fn rank(bits: &[u64], prefix: &[u64], i: usize) -> u32 {
     (p + (b & ((1u64 << (i & 63)) - 1)).count_ones() as u64) as u32
 }
 
+/// An element of a caller's output buffer, written once by the extraction: the value itself,
+/// or an uninitialised slot ([`Refiner::triangles_uninit`]), so that fresh buffers need not be
+/// zeroed before they are filled.
+pub(crate) trait Slot<T> {
+    /// Stores `v`.
+    fn set(&mut self, v: T);
+}
+
+impl<T> Slot<T> for T {
+    #[inline(always)]
+    fn set(&mut self, v: T) {
+        *self = v;
+    }
+}
+
+impl<T> Slot<T> for MaybeUninit<T> {
+    #[inline(always)]
+    fn set(&mut self, v: T) {
+        self.write(v);
+    }
+}
+
 /// Triangles written into a caller buffer (while there is room), counted.
-struct TriOut<'o> {
-    out: &'o mut [[u32; 3]],
+struct TriOut<'o, O: Slot<[u32; 3]> = [u32; 3]> {
+    out: &'o mut [O],
     n: usize,
 }
 
-impl TriOut<'_> {
+impl<O: Slot<[u32; 3]>> TriOut<'_, O> {
     #[inline(always)]
     fn put(&mut self, t: [u32; 3]) {
         if let Some(o) = self.out.get_mut(self.n) {
-            *o = t;
+            o.set(t);
         }
         self.n += 1;
     }
@@ -1882,10 +2059,10 @@ impl TriOut<'_> {
     #[inline(always)]
     fn put_pair(&mut self, t: [u32; 3], u: [u32; 3], more: usize) {
         if let Some(o) = self.out.get_mut(self.n) {
-            *o = t;
+            o.set(t);
         }
         if let Some(o) = self.out.get_mut(self.n + 1) {
-            *o = u;
+            o.set(u);
         }
         self.n += 1 + more;
     }
@@ -1928,10 +2105,10 @@ macro_rules! vi_square_walk {
 /// by the bitmap of kept vertices. A vertex travels as one `u64`: its row-major grid index in
 /// the low 32 bits and its rank (vertex number) in the high 32 bits; a midpoint's index is the
 /// mean of its hypotenuse ends' indices, and each rank is computed when the vertex is split off.
-struct ViSquare<'a, 'o> {
+struct ViSquare<'a, 'o, O: Slot<[u32; 3]> = [u32; 3]> {
     bits: &'a [u64],
     prefix: &'a [u64],
-    out: TriOut<'o>,
+    out: TriOut<'o, O>,
     /// Cells a side (`2^k`).
     side: u64,
 }
@@ -1941,7 +2118,7 @@ const IDX: u64 = 0xffff_ffff;
 /// Entries of the lean walk's stack (at most `levels() + 2 <= 62`).
 const LEAN_STACK: usize = 64;
 
-impl ViSquare<'_, '_> {
+impl<O: Slot<[u32; 3]>> ViSquare<'_, '_, O> {
     /// The bitmap word holding grid index `i`.
     #[inline(always)]
     fn word(&self, i: u64) -> u64 {
@@ -2290,14 +2467,14 @@ impl<T: Terrain> Fetch for CompactFetch<'_, T> {
     }
 }
 
-struct ListSink<'a, 'o> {
+struct ListSink<'a, 'o, O: Slot<[u32; 3]> = [u32; 3]> {
     bits: &'a [u64],
     prefix: &'a [u64],
     w: i64,
-    out: TriOut<'o>,
+    out: TriOut<'o, O>,
 }
 
-impl Sink for ListSink<'_, '_> {
+impl<O: Slot<[u32; 3]>> Sink for ListSink<'_, '_, O> {
     #[inline(always)]
     fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64)) {
         let idx = |p: (i64, i64)| rank(self.bits, self.prefix, (p.1 * self.w + p.0) as usize);
