@@ -50,12 +50,15 @@ fuzz_target!(|data: &[u8]| {
     let measured = vertical_error(&hf, v, t, &mut vec![0; coverage_len(w, h)]).unwrap();
     assert!(measured <= f64::from(e), "measured {measured} > E = {e}");
     // Into uninitialised capacity: the same vertices and triangles (bit for bit).
-    let (mut uv, mut ut) = (
-        Vec::<[f32; 3]>::with_capacity(c.vertices),
-        Vec::<[u32; 3]>::with_capacity(c.triangles),
-    );
+    let (mut uv, mut ut) = (Vec::<[f32; 3]>::new(), Vec::<[u32; 3]>::new());
+    let (vb, tb) = (&mut uv, &mut ut);
     let cu = r
-        .triangles_uninit(&mut scratch, uv.spare_capacity_mut(), ut.spare_capacity_mut())
+        .triangles_uninit(&mut scratch, move |k| {
+            let (vb, tb) = (vb, tb);
+            vb.reserve_exact(k.vertices);
+            tb.reserve_exact(k.triangles);
+            (vb.spare_capacity_mut(), tb.spare_capacity_mut())
+        })
         .unwrap();
     assert_eq!(cu, c);
     // SAFETY: `triangles_uninit` wrote the first `c.vertices` and `c.triangles` elements.

@@ -83,14 +83,27 @@ fn same_uninit<T: Terrain>(
         &'a mut [MaybeUninit<[u32; 3]>],
     );
     type Call<'r> = Box<dyn Fn(&mut [u64], Out<'_>) -> Result<FrameCounts, Error> + 'r>;
-    let mut calls: Vec<Call<'_>> = vec![Box::new(|s, (v, t)| r.triangles_uninit(s, v, t))];
+    let mut calls: Vec<Call<'_>> = vec![Box::new(|s, (v, t)| r.triangles_uninit(s, |_| (v, t)))];
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("popcnt") {
         // SAFETY: the CPU has popcnt.
         calls.push(Box::new(|s, (v, t)| unsafe {
-            r.triangles_uninit_popcnt(s, v, t)
+            r.triangles_uninit_popcnt(s, |_| (v, t))
         }));
     }
+    // `buffers` is called once, with the counts, and not at all for the view-dependent criterion.
+    let seen = std::cell::Cell::new(None);
+    let (mut v3, mut t3) = (
+        vec![MaybeUninit::new(SV); v.len()],
+        vec![MaybeUninit::new(ST); t.len()],
+    );
+    let (vb, tb, seen_ref) = (&mut v3[..], &mut t3[..], &seen);
+    let got = r.triangles_uninit(s, move |c| {
+        assert!(seen_ref.replace(Some(c)).is_none());
+        (vb, tb)
+    });
+    assert_eq!(seen.get(), got.ok());
+    assert_eq!(seen.get().is_some(), view_independent);
     for call in &calls {
         for short in [false, !t.is_empty()] {
             let (nv, nt) = (v.len() + 2, if short { t.len() - 1 } else { t.len() + 2 });

@@ -354,19 +354,15 @@ pub unsafe extern "C" fn pc_refine(
             verts.cast::<MaybeUninit<[f32; 3]>>(),
             tris.cast::<MaybeUninit<[u32; 3]>>(),
         );
-        if let Ok(c) = r.triangles_uninit(
-            view_mut(scratch, scratch_len),
-            view_mut(uv, verts_len),
-            view_mut(ut, tris_len),
-        ) {
+        if let Ok(c) = r.triangles_uninit(view_mut(scratch, scratch_len), |_| {
+            (view_mut(uv, verts_len), view_mut(ut, tris_len))
+        }) {
             acc += c.triangles as f64;
         }
         #[cfg(target_arch = "x86_64")]
-        if let Ok(c) = r.triangles_uninit_popcnt(
-            view_mut(scratch, scratch_len),
-            view_mut(uv, verts_len),
-            view_mut(ut, tris_len),
-        ) {
+        if let Ok(c) = r.triangles_uninit_popcnt(view_mut(scratch, scratch_len), |_| {
+            (view_mut(uv, verts_len), view_mut(ut, tris_len))
+        }) {
             acc += c.vertices as f64;
         }
         acc += r

@@ -490,9 +490,9 @@ fn extract<T: Terrain>(
     Ok(r.triangles(scratch, vertices, triangles)?)
 }
 
-/// The view-independent list into the spare capacity of `vertices` and `triangles` (empty
-/// vectors with at least the counts of [`Refiner::count`] reserved), which are then set to the
-/// counts: nothing is zeroed first.
+/// The view-independent list into `vertices` and `triangles`, emptied, then grown to exactly the
+/// frame's counts by one selection (`triangles_uninit` reserves them for the counts it finds
+/// and fills their spare capacity): nothing is zeroed and nothing is counted twice.
 fn extract_uninit<T: Terrain>(
     r: &Refiner<'_, '_, T>,
     scratch: &mut [u64],
@@ -501,19 +501,24 @@ fn extract_uninit<T: Terrain>(
 ) -> CliResult<FrameCounts> {
     vertices.clear();
     triangles.clear();
-    let (v, t) = (
-        vertices.spare_capacity_mut(),
-        triangles.spare_capacity_mut(),
-    );
+    let (v, t) = (&mut *vertices, &mut *triangles);
+    let buffers = move |c: FrameCounts| {
+        // Moving the borrows into the body makes the closure `FnOnce`, so that the slices it
+        // returns may outlive it.
+        let (v, t) = (v, t);
+        v.reserve_exact(c.vertices);
+        t.reserve_exact(c.triangles);
+        (v.spare_capacity_mut(), t.spare_capacity_mut())
+    };
     #[cfg(target_arch = "x86_64")]
     let c = if std::is_x86_feature_detected!("popcnt") {
         // SAFETY: the CPU has popcnt.
-        unsafe { r.triangles_uninit_popcnt(scratch, v, t) }?
+        unsafe { r.triangles_uninit_popcnt(scratch, buffers) }?
     } else {
-        r.triangles_uninit(scratch, v, t)?
+        r.triangles_uninit(scratch, buffers)?
     };
     #[cfg(not(target_arch = "x86_64"))]
-    let c = r.triangles_uninit(scratch, v, t)?;
+    let c = r.triangles_uninit(scratch, buffers)?;
     // SAFETY: on `Ok(c)`, `triangles_uninit` has written the first `c.vertices` elements of the
     // vertices' spare capacity and the first `c.triangles` of the triangles' (it checks its
     // counts against its selection and returns an error otherwise), and the capacities hold them

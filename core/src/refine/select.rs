@@ -491,18 +491,21 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         if self.view.is_some() {
             return self.triangles_view(scratch, vertices, triangles);
         }
-        self.triangles_vi(scratch, vertices, triangles)
+        self.triangles_vi(scratch, |_| (vertices, triangles))
     }
 
-    /// [`Self::triangles`] into uninitialised buffers, for the view-independent criterion:
-    /// fresh output buffers (a `Vec`'s spare capacity) need not be zeroed first, which on a
-    /// mesh of a million triangles costs about as much as a fifth of the extraction. On `Ok(c)`
-    /// the first `c.vertices` elements of `vertices` and the first `c.triangles` of `triangles`
-    /// have been written (the extraction checks its own counts against the selection's and
-    /// returns [`Error::Internal`] rather than `Ok` if they ever differ), so the caller may
-    /// treat them as initialised; nothing else is written. [`Error::BufferTooSmall`] as for
-    /// [`Self::triangles`] (nothing written); [`Error::Unsupported`] for the view-dependent
-    /// criterion, whose list renumbers its triangles in place and so reads its output back.
+    /// [`Self::triangles`] into uninitialised buffers, for the view-independent criterion, sized
+    /// in the same pass: selects the kept vertices, calls `buffers` once with the frame's counts
+    /// and fills the buffers it returns. Fresh output (a `Vec`'s spare capacity, reserved in
+    /// `buffers`) is then neither zeroed first, which on a mesh of a million triangles costs about
+    /// a fifth of the extraction, nor counted by a separate [`Self::count`], which would select
+    /// a second time. On `Ok(c)` the first `c.vertices` elements of the vertex buffer and the
+    /// first `c.triangles` of the triangle buffer have been written (the extraction checks its
+    /// own counts against the selection's and returns [`Error::Internal`] rather than `Ok` if
+    /// they ever differ), so the caller may treat them as initialised; nothing else is written.
+    /// [`Error::BufferTooSmall`] if a returned buffer is shorter than its count (nothing
+    /// written); [`Error::Unsupported`] for the view-dependent criterion (`buffers` not called),
+    /// whose list renumbers its triangles in place and so reads its output back.
     ///
     /// ```
     /// # use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner};
@@ -511,14 +514,20 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// let mut e = [0u16; 4];
     /// let h = preprocess_compact(&hf, &mut e).unwrap();
     /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(0.0)).unwrap();
-    /// let mut s = vec![0; scratch_len(2, 2)];
-    /// let c = rf.count(&mut s).unwrap();
-    /// let mut v: Vec<[f32; 3]> = Vec::with_capacity(c.vertices);
-    /// let mut t: Vec<[u32; 3]> = Vec::with_capacity(c.triangles);
+    /// let (mut v, mut t): (Vec<[f32; 3]>, Vec<[u32; 3]>) = (Vec::new(), Vec::new());
+    /// let (vb, tb) = (&mut v, &mut t);
     /// let c = rf
-    ///     .triangles_uninit(&mut s, v.spare_capacity_mut(), t.spare_capacity_mut())
+    ///     .triangles_uninit(&mut vec![0; scratch_len(2, 2)], move |c| {
+    ///         // Moving the borrows into the body makes the closure `FnOnce`, so that the
+    ///         // slices it returns may outlive it.
+    ///         let (vb, tb) = (vb, tb);
+    ///         vb.reserve_exact(c.vertices);
+    ///         tb.reserve_exact(c.triangles);
+    ///         (vb.spare_capacity_mut(), tb.spare_capacity_mut())
+    ///     })
     ///     .unwrap();
-    /// // SAFETY: `triangles_uninit` wrote the first `c.vertices` and `c.triangles` elements.
+    /// // SAFETY: `triangles_uninit` wrote the first `c.vertices` and `c.triangles` elements of
+    /// // the spare capacities, which are the vectors' first elements (both were empty).
     /// unsafe {
     ///     v.set_len(c.vertices);
     ///     t.set_len(c.triangles);
@@ -526,32 +535,31 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// assert_eq!(t, [[3, 0, 1], [0, 3, 2]]);
     /// assert_eq!(v[3], [1.0, 1.0, 3.0]);
     /// ```
-    pub fn triangles_uninit(
+    pub fn triangles_uninit<'v, 'o>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [MaybeUninit<[f32; 3]>],
-        triangles: &mut [MaybeUninit<[u32; 3]>],
+        buffers: impl FnOnce(FrameCounts) -> UninitBuffers<'v, 'o>,
     ) -> Result<FrameCounts, Error> {
         if self.view.is_some() {
             return Err(UNINIT_VIEW);
         }
-        self.triangles_vi(scratch, vertices, triangles)
+        self.triangles_vi(scratch, buffers)
     }
 
-    /// The view-independent list into either kind of slot ([`Slot`]): what [`Self::triangles`]
-    /// and [`Self::triangles_uninit`] run.
+    /// The view-independent list into either kind of slot ([`Slot`]), into the buffers
+    /// `buffers` returns for the selection's counts: what [`Self::triangles`] and
+    /// [`Self::triangles_uninit`] run.
     #[inline(always)]
-    fn triangles_vi<V: Slot<[f32; 3]>, O: Slot<[u32; 3]>>(
+    fn triangles_vi<'v, 'o, V: Slot<[f32; 3]> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [V],
-        triangles: &mut [O],
+        buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
     ) -> Result<FrameCounts, Error> {
         if self.square_vi() {
             let walk = |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk(l, r, a, depth);
-            return self.vi_square(scratch, vertices, triangles, walk);
+            return self.vi_square(scratch, buffers, walk);
         }
-        let (sel, written) = self.select_into(scratch, vertices, triangles.len())?;
+        let (sel, written, triangles) = self.select_into(scratch, buffers)?;
         let (bits, prefix) = split_scratch(scratch, self.g.len());
         let mut sink = ListSink {
             bits,
@@ -580,19 +588,18 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "popcnt")]
     #[inline]
-    fn triangles_vi_popcnt<V: Slot<[f32; 3]>, O: Slot<[u32; 3]>>(
+    fn triangles_vi_popcnt<'v, 'o, V: Slot<[f32; 3]> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [V],
-        triangles: &mut [O],
+        buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
     ) -> Result<FrameCounts, Error> {
         if self.square_vi() {
             // The closure inherits the function's target feature.
             let walk =
                 |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk_popcnt(l, r, a, depth);
-            return self.vi_square(scratch, vertices, triangles, walk);
+            return self.vi_square(scratch, buffers, walk);
         }
-        self.triangles_vi(scratch, vertices, triangles)
+        self.triangles_vi(scratch, buffers)
     }
 
     /// [`Self::triangles`] compiled with the x86-64 `popcnt` instruction (x86-64 only): the same
@@ -644,7 +651,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             // Inlined here, so the renumbering's rank counts use the instruction.
             return self.triangles_view(scratch, vertices, triangles);
         }
-        self.triangles_vi_popcnt(scratch, vertices, triangles)
+        self.triangles_vi_popcnt(scratch, |_| (vertices, triangles))
     }
 
     /// [`Self::triangles_uninit`] compiled with the x86-64 `popcnt` instruction, as
@@ -667,7 +674,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// if std::is_x86_feature_detected!("popcnt") {
     ///     let mut s = vec![0; scratch_len(2, 2)];
     ///     // SAFETY: the CPU has popcnt.
-    ///     let c = unsafe { rf.triangles_uninit_popcnt(&mut s, &mut v, &mut t) }.unwrap();
+    ///     let c = unsafe { rf.triangles_uninit_popcnt(&mut s, |_| (&mut v, &mut t)) }.unwrap();
     ///     assert_eq!((c.vertices, c.triangles), (4, 2));
     ///     // SAFETY: the first two triangles were written (the count).
     ///     assert_eq!(unsafe { t[1].assume_init() }, [0, 3, 2]);
@@ -677,16 +684,15 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     #[cfg(target_arch = "x86_64")]
     // Under `cfg_attr(not(doctest))` for the reason given at `triangles_popcnt`.
     #[cfg_attr(not(doctest), target_feature(enable = "popcnt"))]
-    pub fn triangles_uninit_popcnt(
+    pub fn triangles_uninit_popcnt<'v, 'o>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [MaybeUninit<[f32; 3]>],
-        triangles: &mut [MaybeUninit<[u32; 3]>],
+        buffers: impl FnOnce(FrameCounts) -> UninitBuffers<'v, 'o>,
     ) -> Result<FrameCounts, Error> {
         if self.view.is_some() {
             return Err(UNINIT_VIEW);
         }
-        self.triangles_vi_popcnt(scratch, vertices, triangles)
+        self.triangles_vi_popcnt(scratch, buffers)
     }
 
     /// The frame's triangles as indices into the whole sample grid, `y * width + x`,
@@ -849,14 +855,13 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// View-independent extraction of a square grid ([`ViSquare`]) with `walk` as its
     /// traversal (the plain or the `popcnt` build).
     #[inline(always)]
-    fn vi_square<V: Slot<[f32; 3]>, O: Slot<[u32; 3]>>(
+    fn vi_square<'v, 'o, V: Slot<[f32; 3]> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [V],
-        triangles: &mut [O],
+        buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
         walk: impl Fn(&mut ViSquare<'_, '_, O>, u64, u64, u64, u32),
     ) -> Result<FrameCounts, Error> {
-        let (sel, written, mut vs, depth) = self.vi_square_start(scratch, vertices, triangles)?;
+        let (sel, written, mut vs, depth) = self.vi_square_start(scratch, buffers)?;
         for (l, r, a) in vs.roots() {
             walk(&mut vs, l, r, a, depth);
         }
@@ -870,13 +875,12 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// the traversal state and the roots' depth. The kept set is the bitmap (1 bit per vertex,
     /// cache-resident), so the traversal never touches the error array.
     #[inline(always)]
-    fn vi_square_start<'a, 'o, V: Slot<[f32; 3]>, O: Slot<[u32; 3]>>(
+    fn vi_square_start<'a, 'v, 'o, V: Slot<[f32; 3]> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
         scratch: &'a mut [u64],
-        vertices: &mut [V],
-        triangles: &'o mut [O],
+        buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
     ) -> Result<(Selection, usize, ViSquare<'a, 'o, O>, u32), Error> {
-        let (sel, written) = self.select_into(scratch, vertices, triangles.len())?;
+        let (sel, written, triangles) = self.select_into(scratch, buffers)?;
         let c = sel.counts;
         let (bits, prefix) = split_scratch(scratch, self.g.len());
         let vs = ViSquare {
@@ -892,24 +896,25 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         Ok((sel, written, vs, self.g.levels()))
     }
 
-    /// View-independent extraction up to the traversal: selects, checks both buffers (nothing
-    /// written and the scratch released when one is short) and writes the vertices; returns
-    /// the selection and how many vertices were written.
+    /// View-independent extraction up to the traversal: selects, takes the buffers `buffers`
+    /// returns for the counts, checks both (nothing written and the scratch released when one
+    /// is short) and writes the vertices; returns the selection, how many vertices were
+    /// written and the triangle buffer.
     #[inline(always)]
-    fn select_into<V: Slot<[f32; 3]>>(
+    fn select_into<'v, 'o, V: Slot<[f32; 3]> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [V],
-        triangle_room: usize,
-    ) -> Result<(Selection, usize), Error> {
+        buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
+    ) -> Result<(Selection, usize, &'o mut [O]), Error> {
         let sel = self.select(scratch)?;
         let c = sel.counts;
-        if let Err(e) = need(c.vertices, vertices.len()).and(need(c.triangles, triangle_room)) {
+        let (vertices, triangles) = buffers(c);
+        if let Err(e) = need(c.vertices, vertices.len()).and(need(c.triangles, triangles.len())) {
             self.release(scratch, sel);
             return Err(e);
         }
         let written = self.write_vertices(scratch, sel, vertices);
-        Ok((sel, written))
+        Ok((sel, written, triangles))
     }
 
     /// View-dependent list in one traversal: triangles are written with grid indices while the
@@ -1686,6 +1691,12 @@ fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Err
         spheres: h.spheres(),
     })
 }
+
+/// The vertex and triangle buffers that the closure of [`Refiner::triangles_uninit`] returns.
+pub type UninitBuffers<'v, 'o> = (
+    &'v mut [MaybeUninit<[f32; 3]>],
+    &'o mut [MaybeUninit<[u32; 3]>],
+);
 
 /// What [`Refiner::triangles_uninit`] returns for the view-dependent criterion.
 const UNINIT_VIEW: Error = Error::Unsupported {
