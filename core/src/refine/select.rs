@@ -2707,3 +2707,63 @@ mod fill_tests {
         }
     }
 }
+
+#[cfg(test)]
+mod uninit_tests {
+    use super::*;
+    use crate::refine::{preprocess, scratch_len};
+    use crate::Heightfield;
+
+    /// `checked` passes only the selection's own counts; anything else is `Error::Internal`,
+    /// never `Ok` (the guarantee `triangles_uninit`'s callers rely on).
+    #[test]
+    fn checked_refuses_other_counts() {
+        let c = FrameCounts {
+            vertices: 5,
+            triangles: 4,
+        };
+        assert_eq!(checked(c, 5, 4), Ok(c));
+        for (v, t) in [(4, 4), (5, 3), (6, 4), (5, 5), (0, 0)] {
+            assert!(matches!(checked(c, v, t), Err(Error::Internal { .. })));
+        }
+    }
+
+    /// `write_vertices` reports how many slots it wrote: all the marked vertices, or the
+    /// buffer's length when that is shorter.
+    #[test]
+    fn write_vertices_counts_what_it_wrote() {
+        let s: Vec<f32> = (0..25).map(|i| ((i * 7) % 5) as f32).collect();
+        let hf = Heightfield::new(&s, 5, 5).unwrap();
+        let (mut e, mut r) = ([0.0; 25], [0.0; 25]);
+        let h = preprocess(&hf, &mut e, &mut r).unwrap();
+        let rf = Refiner::new(&h, &hf, Criterion::MaxError(0.0)).unwrap();
+        let mut scratch = [0u64; 64];
+        assert!(scratch.len() >= scratch_len(5, 5));
+        let sel = rf.select(&mut scratch).unwrap();
+        let n = sel.counts.vertices;
+        assert!(n > 3);
+        for room in [0, 1, n - 1, n, n + 3] {
+            let mut v = [MaybeUninit::new([9.0f32; 3]); 32];
+            assert_eq!(
+                rf.write_vertices(&mut scratch, sel, &mut v[..room]),
+                room.min(n)
+            );
+        }
+        rf.release(&mut scratch, sel);
+    }
+
+    /// The two new error variants name what went wrong.
+    #[test]
+    fn unsupported_and_internal_display() {
+        extern crate std;
+        use std::string::ToString;
+        assert!(UNINIT_VIEW
+            .to_string()
+            .starts_with("not supported: uninitialised output"));
+        let e = Error::Internal { what: "x" };
+        assert_eq!(
+            e.to_string(),
+            "internal check failed (a bug in relief-core): x"
+        );
+    }
+}
