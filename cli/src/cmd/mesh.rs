@@ -349,10 +349,11 @@ pub fn run(a: &MeshArgs) -> CliResult {
     let refiner = Refiner::new(&hier, &hf, criterion)?;
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let t1 = Instant::now();
-    // Fresh output buffers. View-independent: sized by `count` first (one pass over the
-    // errors, about 0.3 ms on a 1025^2 grid), as martini's getMesh counts before it allocates,
-    // and filled uninitialised (`triangles_uninit`: not zeroed first, which cost 1.2-1.7 ms of
-    // the peers' protocol below on Puget at E = 1 and 5 m). View-dependent: bound-sized and
+    // Fresh output buffers. View-independent: sized exactly by the extraction's own selection,
+    // as martini's getMesh counts before it allocates, and filled uninitialised
+    // (`triangles_uninit`: neither zeroed first, which cost 1.2-1.7 ms of the peers' protocol
+    // below on Puget at E = 1 and 5 m, nor counted by a separate `count`, a second selection of
+    // about 0.3 ms on a 1025^2 grid). View-dependent: bound-sized and
     // zeroed by the allocator (its list renumbers in place, so it reads its output back), since
     // counting would be a second traversal, then cut to the counts; only the pages the mesh
     // fills are touched. (Huge pages for these buffers were tried: with the kernel's
@@ -361,11 +362,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
     type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>, FrameCounts);
     let fresh = |scratch: &mut [u64]| -> CliResult<Mesh> {
         if view_independent {
-            let c = refiner.count(scratch)?;
-            let (mut v, mut t) = (
-                Vec::with_capacity(c.vertices),
-                Vec::with_capacity(c.triangles),
-            );
+            let (mut v, mut t) = (Vec::new(), Vec::new());
             let c = extract_uninit(&refiner, scratch, &mut v, &mut t)?;
             Ok((v, t, c))
         } else {
