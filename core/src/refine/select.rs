@@ -797,52 +797,87 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// read through `F` (one instance per layout), and an explicit stack replaces the
     /// recursion (the second child below the first; a pop replaces a triangle of level `k` by
     /// two of level `k + 1`, so with the two roots at most `levels() + 2` entries, and at most
-    /// one pop per triangle of the bisection tree).
+    /// one pop per triangle of the bisection tree). Each entry carries its decision, made when it
+    /// is pushed: a split decides both children at once, so their two record loads overlap and
+    /// a pop branches on a decision made long before. The order of the decisions changes, not
+    /// their results: between deciding the second child and popping it, the walk only visits
+    /// the first child's subtree, which never has the second child's split vertex as a corner
+    /// (so [`LeanSink::seen`] answers the same), and the decisions are nested.
     fn lean_walk<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
         let n = u64::from(self.g.side());
         let p = |x: u64, y: u64| x | (y << 32);
-        let levels = self.g.levels();
-        let w = self.g.width() as usize;
-        // Entries `(l, r, a, planes, level)`; the second root below the first.
-        let mut stack = [(0u64, 0u64, 0u64, 0u8, 0u8); LEAN_STACK];
-        stack[0] = (p(0, 0), p(n, n), p(0, n), v.mask, 0);
-        stack[1] = (p(n, n), p(0, 0), p(n, 0), v.mask, 0);
+        // Entries `(l, r, a, level, decision)`, each decided when it is pushed (both children
+        // of a split at once, so their two record loads overlap); the second root below the
+        // first.
+        let mut stack = [(0u64, 0u64, 0u64, 0u8, Decision::Keep); LEAN_STACK];
+        let (l0, r0, a0) = (p(0, 0), p(n, n), p(0, n));
+        let (l1, r1, a1) = (p(n, n), p(0, 0), p(n, 0));
+        stack[0] = (
+            l0,
+            r0,
+            a0,
+            0,
+            self.lean_decide(v, f, sink, l0, r0, v.mask, 0),
+        );
+        stack[1] = (
+            l1,
+            r1,
+            a1,
+            0,
+            self.lean_decide(v, f, sink, l1, r1, v.mask, 0),
+        );
         let mut sp = 2usize;
         while sp > 0 {
             sp -= 1;
-            let Some(&(l, r, a, planes, level)) = stack.get(sp) else {
+            let Some(&(l, r, a, level, d)) = stack.get(sp) else {
                 break;
-            };
-            let level = u32::from(level);
-            if level >= levels {
-                sink.put(l, r, a);
-                continue;
-            }
-            let m = (l + r) >> 1;
-            let (x, y) = ((m & IDX) as i64, (m >> 32) as i64);
-            let i = y as usize * w + x as usize;
-            // As in `walk`: a vertex already in the mesh splits without a second decision.
-            let d = if sink.seen(i) {
-                Decision::Split(planes)
-            } else {
-                match f.fetch(i, x as u32, y as u32, level) {
-                    Some(ezr) => self.decide_view(v, F::SPHERES, (x, y), ezr, planes, level),
-                    None => Decision::Split(planes),
-                }
             };
             match d {
                 Decision::Split(pl) => {
+                    let m = (l + r) >> 1;
+                    let next = u32::from(level) + 1;
+                    let d0 = self.lean_decide(v, f, sink, a, l, pl, next);
+                    let d1 = self.lean_decide(v, f, sink, r, a, pl, next);
                     let Some(top) = stack.get_mut(sp..sp + 2) else {
                         break;
                     };
-                    let next = (level + 1) as u8;
-                    top[0] = (r, a, m, pl, next);
-                    top[1] = (a, l, m, pl, next);
+                    top[0] = (r, a, m, next as u8, d1);
+                    top[1] = (a, l, m, next as u8, d0);
                     sp += 2;
                 }
                 Decision::Keep => sink.put(l, r, a),
                 Decision::Cull => {}
             }
+        }
+    }
+
+    /// [`Self::lean_walk`]'s decision for the triangle of hypotenuse `l-r` at `level`: `Keep`
+    /// for a leaf (emitted as it is), otherwise its split vertex's decision, as in `walk`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn lean_decide<F: Fetch, S: LeanSink>(
+        &self,
+        v: &ViewData,
+        f: &F,
+        sink: &S,
+        l: u64,
+        r: u64,
+        planes: u8,
+        level: u32,
+    ) -> Decision {
+        if level >= self.g.levels() {
+            return Decision::Keep;
+        }
+        let m = (l + r) >> 1;
+        let (x, y) = ((m & IDX) as i64, (m >> 32) as i64);
+        let i = y as usize * self.g.width() as usize + x as usize;
+        // As in `walk`: a vertex already in the mesh splits without a second decision.
+        if sink.seen(i) {
+            return Decision::Split(planes);
+        }
+        match f.fetch(i, x as u32, y as u32, level) {
+            Some(ezr) => self.decide_view(v, F::SPHERES, (x, y), ezr, planes, level),
+            None => Decision::Split(planes),
         }
     }
 
