@@ -353,11 +353,11 @@ pub fn run(a: &MeshArgs) -> CliResult {
     // as martini's getMesh counts before it allocates, and filled uninitialised
     // (`triangles_uninit`: neither zeroed first, which cost 1.2-1.7 ms of the peers' protocol
     // below on Puget at E = 1 and 5 m, nor counted by a separate `count`, a second selection of
-    // about 0.3 ms on a 1025^2 grid). View-dependent: bound-sized and
-    // zeroed by the allocator (its list renumbers in place, so it reads its output back), since
-    // counting would be a second traversal, then cut to the counts; only the pages the mesh
-    // fills are touched. (Huge pages for these buffers were tried: with the kernel's
-    // `defrag = madvise` each 2 MiB fault may compact memory, and the pass took 1-6x longer.)
+    // about 0.3 ms on a 1025^2 grid). View-dependent: bound-sized and zeroed by the allocator
+    // (its list renumbers in place, so it reads its output back; counting would be a second
+    // traversal), then cut to the counts; only the pages the mesh fills are touched. (Huge
+    // pages for these buffers were tried: with the kernel's `defrag = madvise` each 2 MiB fault
+    // may compact memory, and the pass took 1-6x longer.)
     let view_independent = criterion_kind == "view-independent";
     type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>, FrameCounts);
     let fresh = |scratch: &mut [u64]| -> CliResult<Mesh> {
