@@ -15,7 +15,9 @@
 # refining every frame gets) is reported next to it, never instead of it, and so is
 # refine_fresh_repeat_ms: fresh output buffers on each of 3 calls in one process, the fastest,
 # which is the peers' own protocol (best of REPS calls in one process, each allocating its
-# output, where the allocator hands a call the memory the previous one freed).
+# output, where the allocator hands a call the memory the previous one freed). The
+# `relief-full-grid` rows time the same extraction with grid-coordinate vertices (`--vertices
+# grid`: `[u16; 2]`, no heights read), the vertex format martini and pymartini return.
 #
 # usage: bench-peers/martini/martini_peers.sh   (env: REPS=5, DATA=../shared/data, RELIEF=path)
 # prints one JSON line per tool, DEM and E, then a Markdown table (summary.py).
@@ -63,12 +65,16 @@ for spec in "${specs[@]}"; do
     raw="$tmp/${name%.*}.f32"
     n=$(.venv/bin/python prep.py "$src" "$fmt" "$raw")
     for e in $ES; do
-        for layout in full compact; do
+        # full-grid: the full layout timed with grid-coordinate vertices (`[u16; 2]`, what
+        # martini and pymartini output) instead of positions.
+        for variant in full compact full-grid; do
+            layout=${variant%-grid}; vf=positions
+            [ "$variant" = full-grid ] && vf=grid
             bp=""; br=""; bu=""; bf=""; bq=""; line=""
             for _ in $(seq "$REPS"); do
                 line=$("$RELIEF" mesh --dem "$raw" --format raw-f32 --width "$n" --height "$n" \
-                    --max-error "$e" --layout "$layout" --out "$tmp/m.obj" --json \
-                    --preprocess-repeats 3)
+                    --max-error "$e" --layout "$layout" --vertices "$vf" --out "$tmp/m.obj" \
+                    --json --preprocess-repeats 3)
                 p=$(echo "$line" | .venv/bin/python -c "import json,sys; print(json.load(sys.stdin)['preprocess_ms'])")
                 q=$(echo "$line" | .venv/bin/python -c "import json,sys; print(json.load(sys.stdin)['preprocess_repeat_ms'])")
                 bq=$(.venv/bin/python -c "print(min(float('$q'), float('${bq:-inf}')))")
@@ -83,7 +89,7 @@ for spec in "${specs[@]}"; do
             echo "$line" | .venv/bin/python -c "
 import json,sys
 d=json.load(sys.stdin)
-print(json.dumps({'dem':'$name','tool':'relief-$layout','n':$n,'E':$e,'create_ms':$bp,'create_repeat_ms':$bq,'mesh_ms':$br,'mesh_reused_ms':$bu,'mesh_fresh_repeat_ms':$bf,
+print(json.dumps({'dem':'$name','tool':'relief-$variant','n':$n,'E':$e,'create_ms':$bp,'create_repeat_ms':$bq,'mesh_ms':$br,'mesh_reused_ms':$bu,'mesh_fresh_repeat_ms':$bf,
  'triangles':d['triangles'],'vertices':d['vertices'],'measured':d['max_error_measured']}))" | tee -a "$out"
         done
     done

@@ -84,6 +84,64 @@ fn view_independent_mesh_writes_obj_and_stays_within_e() {
     }
 }
 
+/// `--vertices grid` times the extraction with grid coordinates and writes the same OBJ as
+/// positions do, view-independent (square and not, two layouts) and view-dependent.
+#[test]
+fn grid_vertices_write_the_same_mesh() {
+    let dir = tempfile::tempdir().unwrap();
+    let view = [
+        "--eye",
+        "-10,-10,30",
+        "--target",
+        "40,40,0",
+        "--size",
+        "320x240",
+        "--pixel-error",
+        "1",
+    ];
+    for (w, h, layout, vd) in [
+        (33u32, 33u32, "full", false),
+        (33, 21, "compact", false),
+        (65, 65, "full", true),
+    ] {
+        let dem = write_dem(dir.path(), w, h);
+        let (ws, hs) = (w.to_string(), h.to_string());
+        let mut objs = Vec::new();
+        for format in ["positions", "grid"] {
+            let out = dir.path().join(format!("{format}.obj"));
+            let mut a = vec![
+                "mesh",
+                "--dem",
+                &dem,
+                "--format",
+                "raw-f32",
+                "--width",
+                &ws,
+                "--height",
+                &hs,
+                "--layout",
+                layout,
+                "--vertices",
+                format,
+                "--json",
+            ];
+            let o = out.to_str().unwrap().to_string();
+            a.extend(["--out", &o]);
+            if vd {
+                a.extend(view);
+            } else {
+                a.extend(["--max-error", "0.5"]);
+            }
+            let v = json(&relief(&a));
+            assert_eq!(v["vertex_format"], format);
+            assert!(v["refine_fresh_repeat_ms"].as_f64().unwrap() >= 0.0);
+            objs.push(std::fs::read(&out).unwrap());
+        }
+        assert!(objs[0].len() > 100);
+        assert_eq!(objs[0], objs[1], "{w}x{h} {layout}");
+    }
+}
+
 #[test]
 fn view_dependent_mesh_runs_with_culling() {
     let dir = tempfile::tempdir().unwrap();

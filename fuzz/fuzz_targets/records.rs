@@ -33,10 +33,15 @@ fuzz_target!(|data: &[u8]| {
         .collect();
     let sc = Scale::default().with_spacing(dx, dx);
     let hf = Heightfield::with_scale(&samples, w, h, sc).unwrap();
-    let (mut err, mut rad) = (vec![0.0f32; vertex_bound(w, h)], vec![0.0f32; vertex_bound(w, h)]);
+    let (mut err, mut rad) = (
+        vec![0.0f32; vertex_bound(w, h)],
+        vec![0.0f32; vertex_bound(w, h)],
+    );
     let hier = preprocess(&hf, &mut err, &mut rad).unwrap();
     let mut rec = vec![VertexRecord::default(); records_len(w, h, layout)];
-    let z = pack_records(&hier, &hf, layout, &mut rec).unwrap().z_range();
+    let z = pack_records(&hier, &hf, layout, &mut rec)
+        .unwrap()
+        .z_range();
     {
         let clean = records_hierarchy(&rec, layout, w, h, sc, z).unwrap();
         assert_eq!(check_records(&clean), Ok(()), "packed records rejected");

@@ -3,7 +3,7 @@
 //! their measured vertical error is at most E; view-dependent meshes without culling are
 //! crack-free, with culling they have no flipped or overlapping triangles; a buffer one element
 //! too small is an error, never a truncated mesh; `triangles_uninit` writes what `triangles`
-//! writes.
+//! writes, and grid-coordinate vertices give the same triangles.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -69,6 +69,14 @@ fuzz_target!(|data: &[u8]| {
     let bits = |x: &[[f32; 3]]| x.iter().map(|p| p.map(f32::to_bits)).collect::<Vec<_>>();
     assert_eq!(bits(&uv), bits(v));
     assert_eq!(ut, t);
+    // Grid coordinates: the same triangles, each vertex's column and row.
+    let mut gv = vec![[0u16; 2]; c.vertices];
+    let mut gt = vec![[0u32; 3]; c.triangles];
+    assert_eq!(r.triangles(&mut scratch, &mut gv, &mut gt).unwrap(), c);
+    assert_eq!(gt, t);
+    for (g, p) in gv.iter().zip(v) {
+        assert_eq!([g[0] as f32 * dx, g[1] as f32 * dx], [p[0], p[1]]);
+    }
     // One element too small: an error, not a silent truncation.
     if c.triangles > 0 {
         let mut short = vec![[0u32; 3]; c.triangles - 1];

@@ -29,7 +29,80 @@ fn refine<T: Terrain>(h: &Hierarchy<'_>, t: &T, c: Criterion) -> Mesh {
     same_with_popcnt(&r, &mut s, &v, &tr);
     same_uninit(&r, &mut s, &v, &tr, matches!(c, Criterion::MaxError(_)));
     same_as_grid_triangles(&r, t, &v, &tr);
+    same_as_grid_vertices(&r, t, &mut s, &v, &tr, matches!(c, Criterion::MaxError(_)));
     Mesh { v, t: tr }
+}
+
+/// With grid coordinates (`[u16; 2]`) for vertices, every entry point writes the same triangles
+/// and each vertex's column and row (its position divided by the spacing), into initialised and
+/// uninitialised buffers, with and without popcnt, and refuses a buffer one element short.
+fn same_as_grid_vertices<T: Terrain>(
+    r: &Refiner<'_, '_, T>,
+    t: &T,
+    s: &mut [u64],
+    v: &[[f32; 3]],
+    tr: &[[u32; 3]],
+    view_independent: bool,
+) {
+    use std::mem::MaybeUninit;
+    type Call<'r> = Box<
+        dyn Fn(&mut [u64], &mut [[u16; 2]], &mut [[u32; 3]]) -> Result<FrameCounts, Error> + 'r,
+    >;
+    // The uninitialised builds write into `MaybeUninit` copies, then hand the values back.
+    let uninit = |s: &mut [u64], g: &mut [[u16; 2]], o: &mut [[u32; 3]], popcnt: bool| {
+        let mut g2: Vec<_> = g.iter().map(|&x| MaybeUninit::new(x)).collect();
+        let mut o2: Vec<_> = o.iter().map(|&x| MaybeUninit::new(x)).collect();
+        let (gb, ob) = (&mut g2[..], &mut o2[..]);
+        let got = if popcnt {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: only called where the CPU has popcnt.
+            let got = unsafe { r.triangles_uninit_popcnt(s, move |_| (gb, ob)) };
+            #[cfg(not(target_arch = "x86_64"))]
+            let got = r.triangles_uninit(s, move |_| (gb, ob));
+            got
+        } else {
+            r.triangles_uninit(s, move |_| (gb, ob))
+        };
+        // SAFETY: every element was initialised above.
+        unsafe {
+            for (x, y) in g.iter_mut().zip(&g2) {
+                *x = y.assume_init();
+            }
+            for (x, y) in o.iter_mut().zip(&o2) {
+                *x = y.assume_init();
+            }
+        }
+        got
+    };
+    let mut calls: Vec<Call<'_>> = vec![Box::new(|s, g, o| r.triangles(s, g, o))];
+    if view_independent {
+        calls.push(Box::new(|s, g, o| uninit(s, g, o, false)));
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("popcnt") {
+        // SAFETY: the CPU has popcnt.
+        calls.push(Box::new(|s, g, o| unsafe { r.triangles_popcnt(s, g, o) }));
+        if view_independent {
+            calls.push(Box::new(|s, g, o| uninit(s, g, o, true)));
+        }
+    }
+    let sc = t.scale();
+    for call in &calls {
+        let (mut g, mut o) = (vec![[u16::MAX; 2]; v.len()], vec![[u32::MAX; 3]; tr.len()]);
+        let c = call(s, &mut g, &mut o).unwrap();
+        assert_eq!((c.vertices, c.triangles), (v.len(), tr.len()));
+        assert_eq!(o, tr);
+        for (gv, p) in g.iter().zip(v) {
+            let (x, y) = (gv[0] as f32 * sc.dx, gv[1] as f32 * sc.dy);
+            assert_eq!([x.to_bits(), y.to_bits()], [p[0].to_bits(), p[1].to_bits()]);
+        }
+        if let Some(short) = tr.len().checked_sub(1) {
+            assert!(matches!(
+                call(s, &mut g, &mut o[..short]),
+                Err(Error::BufferTooSmall { .. })
+            ));
+        }
+    }
 }
 
 /// `grid_triangles` gives the indexed list's triangles in its order, each corner as the grid
@@ -340,6 +413,31 @@ fn hard_vertical_cliff() {
     let hf = Heightfield::new(&s, w, h).unwrap();
     for e in [0.0, 0.5, 100.0] {
         check_vi(&hf, e);
+    }
+}
+
+/// Grid coordinates as `u16` hold columns and rows up to 65,535: a grid 65,536 samples wide
+/// refines into them, one 65,537 wide is refused (`SizeOverflow`) while positions still work.
+#[test]
+fn grid_vertices_refuse_a_grid_wider_than_u16() {
+    for w in [65_536u32, 65_537] {
+        let s: Vec<f32> = (0..2 * w).map(|i| (i % 7) as f32).collect();
+        let hf = Heightfield::new(&s, w, 2).unwrap();
+        let mut e = vec![0u16; hierarchy_len(w, 2)];
+        let h = preprocess_compact(&hf, &mut e).unwrap();
+        let r = Refiner::new(&h, &hf, Criterion::MaxError(0.5)).unwrap();
+        let mut sc = vec![0; scratch_len(w, 2)];
+        let n = r.count(&mut sc).unwrap();
+        let mut p = vec![[0.0f32; 3]; n.vertices];
+        let (mut g, mut t) = (vec![[0u16; 2]; n.vertices], vec![[0u32; 3]; n.triangles]);
+        assert_eq!(r.triangles(&mut sc, &mut p, &mut t), Ok(n));
+        let got = r.triangles(&mut sc, &mut g, &mut t);
+        if w == 65_536 {
+            assert_eq!(got, Ok(n));
+            assert_eq!(g[n.vertices - 1], [65_535, 1]);
+        } else {
+            assert_eq!(got, Err(Error::SizeOverflow));
+        }
     }
 }
 

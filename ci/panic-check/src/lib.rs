@@ -365,6 +365,32 @@ pub unsafe extern "C" fn pc_refine(
         }) {
             acc += c.vertices as f64;
         }
+        // Grid-coordinate vertices (`[u16; 2]`, 4 bytes: `verts_len` of them fit).
+        let gv = verts.cast::<[u16; 2]>();
+        if let Ok(c) = r.triangles(
+            view_mut(scratch, scratch_len),
+            view_mut(gv, verts_len),
+            view_mut(tris, tris_len),
+        ) {
+            acc += c.vertices as f64;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let Ok(c) = r.triangles_popcnt(
+            view_mut(scratch, scratch_len),
+            view_mut(gv, verts_len),
+            view_mut(tris, tris_len),
+        ) {
+            acc += c.vertices as f64;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let Ok(c) = r.triangles_uninit_popcnt(view_mut(scratch, scratch_len), |_| {
+            (
+                view_mut(gv.cast::<MaybeUninit<[u16; 2]>>(), verts_len),
+                view_mut(ut, tris_len),
+            )
+        }) {
+            acc += c.triangles as f64;
+        }
         acc += r
             .grid_triangles(view_mut(tris, tris_len))
             .map_or(0.0, |n| n as f64);

@@ -9,7 +9,7 @@ use relief_core::glam::Vec3;
 use relief_core::refine::{
     coverage_len, hierarchy_len, pack_records, preprocess, preprocess_compact, records_len,
     scratch_len, strip_bound, vertical_error_partial, Criterion, FrameCounts, Hierarchy,
-    RecordLayout, Refiner, StripCounts, VertexRecord, View,
+    MeshVertex, RecordLayout, Refiner, StripCounts, VertexRecord, View,
 };
 use relief_core::refine::{triangle_bound, vertex_bound};
 use relief_core::Terrain;
@@ -30,6 +30,16 @@ pub enum Layout {
     Records,
     /// 8-byte records in row-major order.
     RecordsLinear,
+}
+
+/// What the timed extraction writes for each vertex.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum VertexFormat {
+    /// World x and y and the height (`[f32; 3]`, 12 bytes).
+    Positions,
+    /// Grid column and row (`[u16; 2]`, 4 bytes; no height is read): the vertex format of
+    /// martini and pymartini, for a vertex shader that reads heights from a texture.
+    Grid,
 }
 
 /// Meshing method.
@@ -80,6 +90,12 @@ pub struct MeshArgs {
     /// Preprocessed data layout.
     #[arg(long, value_enum, default_value = "full")]
     layout: Layout,
+    /// What the timed extraction writes per vertex (refine_ms and the other refine times):
+    /// `grid` times it with grid coordinates, martini's vertex format, then extracts the
+    /// frame once more with positions for the OBJ and the error scan, and checks that both
+    /// give the same mesh.
+    #[arg(long, value_enum, default_value = "positions")]
+    vertices: VertexFormat,
     /// With --layout records or records-linear: keep the preprocessed records in PATH
     /// (out-of-core, issue 6). If PATH exists it is memory-mapped instead of preprocessing
     /// (after checking that it belongs to this grid: size, layout, spacing, sampled heights,
@@ -348,55 +364,39 @@ pub fn run(a: &MeshArgs) -> CliResult {
     };
     let refiner = Refiner::new(&hier, &hf, criterion)?;
     let mut scratch = vec![0u64; scratch_len(w, h)];
-    let t1 = Instant::now();
-    // Fresh output buffers. View-independent: sized exactly by the extraction's own selection,
-    // as martini's getMesh counts before it allocates, and filled uninitialised
-    // (`triangles_uninit`: neither zeroed first, which cost 1.2-1.7 ms of the peers' protocol
-    // below on Puget at E = 1 and 5 m, nor counted by a separate `count`, a second selection of
-    // about 0.3 ms on a 1025^2 grid). View-dependent: bound-sized and zeroed by the allocator
-    // (its list renumbers in place, so it reads its output back; counting would be a second
-    // traversal), then cut to the counts; only the pages the mesh fills are touched. (Huge
-    // pages for these buffers were tried: with the kernel's `defrag = madvise` each 2 MiB fault
-    // may compact memory, and the pass took 1-6x longer.)
     let view_independent = criterion_kind == "view-independent";
-    type Mesh = (Vec<[f32; 3]>, Vec<[u32; 3]>, FrameCounts);
-    let fresh = |scratch: &mut [u64]| -> CliResult<Mesh> {
-        if view_independent {
-            let (mut v, mut t) = (Vec::new(), Vec::new());
-            let c = extract_uninit(&refiner, scratch, &mut v, &mut t)?;
-            Ok((v, t, c))
-        } else {
-            let mut v = vec![[0.0f32; 3]; vertex_bound(w, h)];
-            let mut t = vec![[0u32; 3]; triangle_bound(w, h)];
-            let c = extract(&refiner, scratch, &mut v, &mut t)?;
-            Ok((v, t, c))
+    let (mut vertices, mut triangles, counts, times) = match a.vertices {
+        VertexFormat::Positions => {
+            timed_refine::<_, [f32; 3]>(&refiner, &mut scratch, view_independent, w, h)?
+        }
+        VertexFormat::Grid => {
+            // Timed with grid coordinates; the OBJ and the error scan need positions, so the
+            // frame is extracted once more (untimed) with them, and the two must agree.
+            let (g, gt, gc, times) =
+                timed_refine::<_, [u16; 2]>(&refiner, &mut scratch, view_independent, w, h)?;
+            let mut v = vec![[0.0f32; 3]; gc.vertices];
+            let mut t = vec![[0u32; 3]; gc.triangles];
+            let c = extract(&refiner, &mut scratch, &mut v, &mut t)?;
+            let s = hf.scale();
+            let agree = gc == c
+                && gt[..c.triangles] == t[..]
+                && g[..c.vertices].iter().zip(&v).all(|(g, p)| {
+                    (g[0] as f32 * s.dx).to_bits() == p[0].to_bits()
+                        && (g[1] as f32 * s.dy).to_bits() == p[1].to_bits()
+                });
+            if !agree {
+                return Err(CliError(
+                    "internal error: grid vertices and positions give different meshes".into(),
+                ));
+            }
+            (v, t, c, times)
         }
     };
-    let (mut vertices, mut triangles, counts) = fresh(&mut scratch)?;
-    let refine_ms = t1.elapsed().as_secs_f64() * 1e3;
-    // A library user refines every frame into the same caller buffers: the same extraction
-    // again into the now-resident buffers (fastest of 3), reported next to refine_ms (which
-    // pays the first touch of fresh buffers, as a one-shot tool and martini's getMesh do).
-    let mut refine_reused_ms = f64::INFINITY;
-    for _ in 0..3 {
-        let t = Instant::now();
-        extract(&refiner, &mut scratch, &mut vertices, &mut triangles)?;
-        refine_reused_ms = refine_reused_ms.min(t.elapsed().as_secs_f64() * 1e3);
-    }
-    // The peers' protocol (martini's getMesh and pymartini's get_mesh, best of REPS calls in one
-    // process, each allocating its output): fresh buffers on every call, fastest of 3 after the
-    // first call above. glibc raises its mmap threshold to the size of a freed mapping (up to
-    // 32 MiB), so a later allocation below that size comes from the heap the previous call
-    // freed and skips the first-touch page faults that refine_ms pays (an allocation at or
-    // above it is mapped afresh: the bound-sized triangle buffer of a 1025^2 grid, 25 MB, was,
-    // and paid them on every call).
-    let mut refine_fresh_repeat_ms = f64::INFINITY;
-    for _ in 0..3 {
-        let t = Instant::now();
-        let (v, tr, _) = fresh(&mut scratch)?;
-        drop((v, tr)); // freed inside the timing, before the next call allocates
-        refine_fresh_repeat_ms = refine_fresh_repeat_ms.min(t.elapsed().as_secs_f64() * 1e3);
-    }
+    let RefineTimes {
+        first: refine_ms,
+        reused: refine_reused_ms,
+        fresh_repeat: refine_fresh_repeat_ms,
+    } = times;
     vertices.truncate(counts.vertices);
     triangles.truncate(counts.triangles);
     let strip = strip_stats(&refiner, &hf, w, h, false)?;
@@ -428,6 +428,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
             "height": h,
             "mode": criterion_kind,
             "layout": format!("{:?}", a.layout).to_lowercase(),
+            "vertex_format": format!("{:?}", a.vertices).to_lowercase(),
             "bytes_per_vertex": hier.bytes_per_vertex(),
             "vertices": counts.vertices,
             "triangles": counts.triangles,
@@ -471,12 +472,86 @@ pub fn run(a: &MeshArgs) -> CliResult {
     }
 }
 
+/// `refine_ms`, `refine_reused_ms` and `refine_fresh_repeat_ms` of one frame.
+struct RefineTimes {
+    first: f64,
+    reused: f64,
+    fresh_repeat: f64,
+}
+
+/// One frame extracted with vertices of type `P` into fresh buffers (timed: `refine_ms`), then
+/// again into the same buffers and into fresh ones (fastest of 3 each); returns the first
+/// call's output (buffers possibly longer than the counts) and the times.
+#[allow(clippy::type_complexity)]
+fn timed_refine<T: Terrain, P: MeshVertex + Default>(
+    refiner: &Refiner<'_, '_, T>,
+    scratch: &mut [u64],
+    view_independent: bool,
+    w: u32,
+    h: u32,
+) -> CliResult<(Vec<P>, Vec<[u32; 3]>, FrameCounts, RefineTimes)> {
+    let t1 = Instant::now();
+    // Fresh output buffers. View-independent: sized exactly by the extraction's own selection,
+    // as martini's getMesh counts before it allocates, and filled uninitialised
+    // (`triangles_uninit`: neither zeroed first, which cost 1.2-1.7 ms of the peers' protocol
+    // below on Puget at E = 1 and 5 m, nor counted by a separate `count`, a second selection of
+    // about 0.3 ms on a 1025^2 grid). View-dependent: bound-sized and zeroed by the allocator
+    // (its list renumbers in place, so it reads its output back; counting would be a second
+    // traversal), then cut to the counts; only the pages the mesh fills are touched. (Huge
+    // pages for these buffers were tried: with the kernel's `defrag = madvise` each 2 MiB fault
+    // may compact memory, and the pass took 1-6x longer.)
+    type Mesh<P> = (Vec<P>, Vec<[u32; 3]>, FrameCounts);
+    let fresh = |scratch: &mut [u64]| -> CliResult<Mesh<P>> {
+        if view_independent {
+            let (mut v, mut t) = (Vec::new(), Vec::new());
+            let c = extract_uninit(refiner, scratch, &mut v, &mut t)?;
+            Ok((v, t, c))
+        } else {
+            let mut v = vec![P::default(); vertex_bound(w, h)];
+            let mut t = vec![[0u32; 3]; triangle_bound(w, h)];
+            let c = extract(refiner, scratch, &mut v, &mut t)?;
+            Ok((v, t, c))
+        }
+    };
+    let (mut vertices, mut triangles, counts) = fresh(scratch)?;
+    let first = t1.elapsed().as_secs_f64() * 1e3;
+    // A library user refines every frame into the same caller buffers: the same extraction
+    // again into the now-resident buffers (fastest of 3), reported next to refine_ms (which
+    // pays the first touch of fresh buffers, as a one-shot tool and martini's getMesh do).
+    let mut reused = f64::INFINITY;
+    for _ in 0..3 {
+        let t = Instant::now();
+        extract(refiner, scratch, &mut vertices, &mut triangles)?;
+        reused = reused.min(t.elapsed().as_secs_f64() * 1e3);
+    }
+    // The peers' protocol (martini's getMesh and pymartini's get_mesh, best of REPS calls in one
+    // process, each allocating its output): fresh buffers on every call, fastest of 3 after the
+    // first call above. glibc raises its mmap threshold to the size of a freed mapping (up to
+    // 32 MiB), so a later allocation below that size comes from the heap the previous call
+    // freed and skips the first-touch page faults that refine_ms pays (an allocation at or
+    // above it is mapped afresh: the bound-sized triangle buffer of a 1025^2 grid, 25 MB, was,
+    // and paid them on every call).
+    let mut fresh_repeat = f64::INFINITY;
+    for _ in 0..3 {
+        let t = Instant::now();
+        let (v, tr, _) = fresh(scratch)?;
+        drop((v, tr)); // freed inside the timing, before the next call allocates
+        fresh_repeat = fresh_repeat.min(t.elapsed().as_secs_f64() * 1e3);
+    }
+    let times = RefineTimes {
+        first,
+        reused,
+        fresh_repeat,
+    };
+    Ok((vertices, triangles, counts, times))
+}
+
 /// `Refiner::triangles`, with the `popcnt` build of it where the CPU has the instruction (same
 /// output).
-fn extract<T: Terrain>(
+fn extract<T: Terrain, P: MeshVertex>(
     r: &Refiner<'_, '_, T>,
     scratch: &mut [u64],
-    vertices: &mut [[f32; 3]],
+    vertices: &mut [P],
     triangles: &mut [[u32; 3]],
 ) -> CliResult<FrameCounts> {
     #[cfg(target_arch = "x86_64")]
@@ -490,10 +565,10 @@ fn extract<T: Terrain>(
 /// The view-independent list into `vertices` and `triangles`, emptied, then grown to exactly the
 /// frame's counts by one selection (`triangles_uninit` reserves them for the counts it finds
 /// and fills their spare capacity): nothing is zeroed and nothing is counted twice.
-fn extract_uninit<T: Terrain>(
+fn extract_uninit<T: Terrain, P: MeshVertex>(
     r: &Refiner<'_, '_, T>,
     scratch: &mut [u64],
-    vertices: &mut Vec<[f32; 3]>,
+    vertices: &mut Vec<P>,
     triangles: &mut Vec<[u32; 3]>,
 ) -> CliResult<FrameCounts> {
     vertices.clear();

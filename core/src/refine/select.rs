@@ -465,10 +465,12 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         Ok(sel.counts)
     }
 
-    /// The indexed triangle list: fills `vertices` (world positions) and `triangles` (indices
-    /// into `vertices`, counter-clockwise seen from +z) and returns the counts.
+    /// The indexed triangle list: fills `vertices` (world positions `[f32; 3]`, or grid
+    /// coordinates `[u16; 2]`: see [`MeshVertex`]) and `triangles` (indices into `vertices`,
+    /// counter-clockwise seen from +z) and returns the counts.
     /// [`Error::BufferTooSmall`] if either buffer is too small (view-independent: nothing
-    /// written; view-dependent: the buffers' contents are unspecified).
+    /// written; view-dependent: the buffers' contents are unspecified);
+    /// [`Error::SizeOverflow`] if the grid's coordinates do not fit the vertex type.
     ///
     /// ```
     /// # use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner};
@@ -482,10 +484,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// assert_eq!(t, [[3, 0, 1], [0, 3, 2]]);
     /// assert_eq!(v[3], [1.0, 1.0, 3.0]);
     /// ```
-    pub fn triangles(
+    pub fn triangles<P: MeshVertex>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [[f32; 3]],
+        vertices: &mut [P],
         triangles: &mut [[u32; 3]],
     ) -> Result<FrameCounts, Error> {
         if self.view.is_some() {
@@ -535,22 +537,22 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// assert_eq!(t, [[3, 0, 1], [0, 3, 2]]);
     /// assert_eq!(v[3], [1.0, 1.0, 3.0]);
     /// ```
-    pub fn triangles_uninit<'v, 'o>(
+    pub fn triangles_uninit<'v, 'o, P: MeshVertex>(
         &self,
         scratch: &mut [u64],
-        buffers: impl FnOnce(FrameCounts) -> UninitBuffers<'v, 'o>,
+        buffers: impl FnOnce(FrameCounts) -> UninitBuffers<'v, 'o, P>,
     ) -> Result<FrameCounts, Error> {
         if self.view.is_some() {
             return Err(UNINIT_VIEW);
         }
-        self.triangles_vi(scratch, buffers)
+        self.triangles_vi::<P, _, _>(scratch, buffers)
     }
 
     /// The view-independent list into either kind of slot ([`Slot`]), into the buffers
     /// `buffers` returns for the selection's counts: what [`Self::triangles`] and
     /// [`Self::triangles_uninit`] run.
     #[inline(always)]
-    fn triangles_vi<'v, 'o, V: Slot<[f32; 3]> + 'v, O: Slot<[u32; 3]> + 'o>(
+    fn triangles_vi<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
@@ -588,7 +590,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "popcnt")]
     #[inline]
-    fn triangles_vi_popcnt<'v, 'o, V: Slot<[f32; 3]> + 'v, O: Slot<[u32; 3]> + 'o>(
+    fn triangles_vi_popcnt<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
@@ -641,10 +643,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     // only where the feature is enabled at compile time (rust-lang/rust#49864), so this example
     // would never run. The crate the doctests link against is built with the attribute.
     #[cfg_attr(not(doctest), target_feature(enable = "popcnt"))]
-    pub fn triangles_popcnt(
+    pub fn triangles_popcnt<P: MeshVertex>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [[f32; 3]],
+        vertices: &mut [P],
         triangles: &mut [[u32; 3]],
     ) -> Result<FrameCounts, Error> {
         if self.view.is_some() {
@@ -670,7 +672,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// let mut e = [0u16; 4];
     /// let h = preprocess_compact(&hf, &mut e).unwrap();
     /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(0.0)).unwrap();
-    /// let (mut v, mut t) = ([MaybeUninit::uninit(); 4], [MaybeUninit::uninit(); 2]);
+    /// let mut v = [MaybeUninit::<[f32; 3]>::uninit(); 4];
+    /// let mut t = [MaybeUninit::uninit(); 2];
     /// if std::is_x86_feature_detected!("popcnt") {
     ///     let mut s = vec![0; scratch_len(2, 2)];
     ///     // SAFETY: the CPU has popcnt.
@@ -684,15 +687,15 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     #[cfg(target_arch = "x86_64")]
     // Under `cfg_attr(not(doctest))` for the reason given at `triangles_popcnt`.
     #[cfg_attr(not(doctest), target_feature(enable = "popcnt"))]
-    pub fn triangles_uninit_popcnt<'v, 'o>(
+    pub fn triangles_uninit_popcnt<'v, 'o, P: MeshVertex>(
         &self,
         scratch: &mut [u64],
-        buffers: impl FnOnce(FrameCounts) -> UninitBuffers<'v, 'o>,
+        buffers: impl FnOnce(FrameCounts) -> UninitBuffers<'v, 'o, P>,
     ) -> Result<FrameCounts, Error> {
         if self.view.is_some() {
             return Err(UNINIT_VIEW);
         }
-        self.triangles_vi_popcnt(scratch, buffers)
+        self.triangles_vi_popcnt::<P, _, _>(scratch, buffers)
     }
 
     /// The frame's triangles as indices into the whole sample grid, `y * width + x`,
@@ -890,7 +893,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// View-independent extraction of a square grid ([`ViSquare`]) with `walk` as its
     /// traversal (the plain or the `popcnt` build).
     #[inline(always)]
-    fn vi_square<'v, 'o, V: Slot<[f32; 3]> + 'v, O: Slot<[u32; 3]> + 'o>(
+    fn vi_square<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
@@ -910,7 +913,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// the traversal state and the roots' depth. The kept set is the bitmap (1 bit per vertex,
     /// cache-resident), so the traversal never touches the error array.
     #[inline(always)]
-    fn vi_square_start<'a, 'v, 'o, V: Slot<[f32; 3]> + 'v, O: Slot<[u32; 3]> + 'o>(
+    fn vi_square_start<'a, 'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
         scratch: &'a mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
@@ -931,16 +934,27 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         Ok((sel, written, vs, self.g.levels()))
     }
 
+    /// [`Error::SizeOverflow`] if the grid's coordinates do not fit vertex type `P`.
+    #[inline(always)]
+    fn fits_vertex<P: MeshVertex>(&self) -> Result<(), Error> {
+        let most = u64::from(self.g.width().max(self.g.height())) - 1;
+        if most > P::MAX_COORD {
+            return Err(Error::SizeOverflow);
+        }
+        Ok(())
+    }
+
     /// View-independent extraction up to the traversal: selects, takes the buffers `buffers`
     /// returns for the counts, checks both (nothing written and the scratch released when one
     /// is short) and writes the vertices; returns the selection, how many vertices were
     /// written and the triangle buffer.
     #[inline(always)]
-    fn select_into<'v, 'o, V: Slot<[f32; 3]> + 'v, O: Slot<[u32; 3]> + 'o>(
+    fn select_into<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
     ) -> Result<(Selection, usize, &'o mut [O]), Error> {
+        self.fits_vertex::<P>()?;
         let sel = self.select(scratch)?;
         let c = sel.counts;
         let (vertices, triangles) = buffers(c);
@@ -956,12 +970,13 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// bitmap is marked, then renumbered by rank. Inlined into both callers (the `popcnt` build
     /// of [`Self::triangles_popcnt`] then counts each rank with the instruction).
     #[inline(always)]
-    fn triangles_view(
+    fn triangles_view<P: MeshVertex>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [[f32; 3]],
+        vertices: &mut [P],
         triangles: &mut [[u32; 3]],
     ) -> Result<FrameCounts, Error> {
+        self.fits_vertex::<P>()?;
         let mut m = marks(scratch, self.g.len())?;
         m.begin_sparse();
         let mut sink = GridSink {
@@ -1280,7 +1295,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
     /// Writes the positions of the selected vertices, in vertex order: the touched words of
     /// sparse marks, every word of dense ones. Returns how many it wrote.
-    pub(crate) fn write_vertices<V: Slot<[f32; 3]>>(
+    pub(crate) fn write_vertices<P: MeshVertex, V: Slot<P>>(
         &self,
         scratch: &mut [u64],
         sel: Selection,
@@ -1297,7 +1312,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// View-dependent refinement from records takes the heights from the records (the terrain's
     /// heights, packed): the traversal has just read them, while the terrain's rows are cold
     /// pages on a large grid.
-    pub(crate) fn write_vertices_in<V: Slot<[f32; 3]>>(
+    pub(crate) fn write_vertices_in<P: MeshVertex, V: Slot<P>>(
         &self,
         bits: &[u64],
         words: impl Iterator<Item = usize>,
@@ -1319,8 +1334,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                             break 'words;
                         };
                         let (x, y) = o.point(k);
-                        let z = recs.get(k).map_or_else(|| self.t.local_z(x, y), |r| r.z);
-                        v.set([x as f32 * s.dx, y as f32 * s.dy, z + s.z_offset]);
+                        let z = || recs.get(k).map_or_else(|| self.t.local_z(x, y), |r| r.z);
+                        v.set(P::at(x, y, &s, z));
                     }
                 }
                 len - slots.len()
@@ -1337,7 +1352,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
     /// [`Self::write_vertices_in`] with local heights from `z`.
     #[inline(always)]
-    fn write_positions<V: Slot<[f32; 3]>>(
+    fn write_positions<P: MeshVertex, V: Slot<P>>(
         &self,
         bits: &[u64],
         words: impl Iterator<Item = usize>,
@@ -1373,7 +1388,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                     break 'words;
                 };
                 let (xu, yu) = (x as u32, y as u32);
-                v.set([xu as f32 * s.dx, yu as f32 * s.dy, z(xu, yu) + s.z_offset]);
+                v.set(P::at(xu, yu, &s, || z(xu, yu)));
             }
         }
         len - slots.len()
@@ -1728,10 +1743,8 @@ fn view_data(h: &Hierarchy<'_>, v: &View, g: RefineGrid) -> Result<ViewData, Err
 }
 
 /// The vertex and triangle buffers that the closure of [`Refiner::triangles_uninit`] returns.
-pub type UninitBuffers<'v, 'o> = (
-    &'v mut [MaybeUninit<[f32; 3]>],
-    &'o mut [MaybeUninit<[u32; 3]>],
-);
+pub type UninitBuffers<'v, 'o, P = [f32; 3]> =
+    (&'v mut [MaybeUninit<P>], &'o mut [MaybeUninit<[u32; 3]>]);
 
 /// What [`Refiner::triangles_uninit`] returns for the view-dependent criterion.
 const UNINIT_VIEW: Error = Error::Unsupported {
@@ -2062,6 +2075,71 @@ pub(crate) fn rank(bits: &[u64], prefix: &[u64], i: usize) -> u32 {
     let b = bits.get(w).copied().unwrap_or(0);
     let p = prefix.get(w).copied().unwrap_or(0);
     (p + (b & ((1u64 << (i & 63)) - 1)).count_ones() as u64) as u32
+}
+
+/// What the vertex buffer of [`Refiner::triangles`] (and of its `_uninit` and `_popcnt`
+/// builds) holds for each vertex:
+/// - `[f32; 3]`: its position, world x and y and the local height plus the map's z offset
+///   (`[x * dx, y * dy, z + z_offset]`, as [`Refiner::morph`]'s positions);
+/// - `[u16; 2]`: its grid coordinates `[x, y]` (column, row), the vertex format of
+///   `@mapbox/martini` and `pymartini`, for a vertex shader that reads the heights from a texture
+///   of the map. No height is read. Grids of at most 65,536 samples a side
+///   ([`Error::SizeOverflow`] otherwise).
+///
+/// The triangles are the same, index for index, whichever the vertex type.
+///
+/// ```
+/// use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner};
+/// use relief_core::Heightfield;
+/// let s: Vec<f32> = (0..81).map(|i| ((i * 37) % 11) as f32).collect();
+/// let hf = Heightfield::new(&s, 9, 9).unwrap();
+/// let mut e = vec![0u16; 81];
+/// let h = preprocess_compact(&hf, &mut e).unwrap();
+/// let rf = Refiner::new(&h, &hf, Criterion::MaxError(1.0)).unwrap();
+/// let mut scratch = vec![0; scratch_len(9, 9)];
+/// let (mut p, mut t) = (vec![[0.0f32; 3]; 81], vec![[0u32; 3]; 128]);
+/// let (mut g, mut t2) = (vec![[0u16; 2]; 81], vec![[0u32; 3]; 128]);
+/// let c = rf.triangles(&mut scratch, &mut p, &mut t).unwrap();
+/// assert_eq!(rf.triangles(&mut scratch, &mut g, &mut t2).unwrap(), c);
+/// assert_eq!(t, t2);
+/// for (p, g) in p[..c.vertices].iter().zip(&g[..c.vertices]) {
+///     assert_eq!([p[0], p[1]], [g[0] as f32, g[1] as f32]);
+/// }
+/// ```
+pub trait MeshVertex: sealed::Sealed + Copy + 'static {}
+
+impl MeshVertex for [f32; 3] {}
+
+impl MeshVertex for [u16; 2] {}
+
+mod sealed {
+    use crate::Scale;
+
+    /// What [`super::MeshVertex`] needs, out of the public interface.
+    pub trait Sealed {
+        /// The largest grid coordinate the type holds.
+        const MAX_COORD: u64;
+        /// The vertex at grid point `(x, y)`, where `z` gives its local height (called only by
+        /// a type that stores it, so the others never load it).
+        fn at(x: u32, y: u32, s: &Scale, z: impl FnOnce() -> f32) -> Self;
+    }
+
+    impl Sealed for [f32; 3] {
+        const MAX_COORD: u64 = u64::MAX;
+        #[inline(always)]
+        fn at(x: u32, y: u32, s: &Scale, z: impl FnOnce() -> f32) -> Self {
+            [x as f32 * s.dx, y as f32 * s.dy, z() + s.z_offset]
+        }
+    }
+
+    impl Sealed for [u16; 2] {
+        const MAX_COORD: u64 = u16::MAX as u64;
+        #[inline(always)]
+        fn at(x: u32, y: u32, _s: &Scale, _z: impl FnOnce() -> f32) -> Self {
+            // Both fit: `Refiner::fits_vertex` checked the grid's size.
+            [x as u16, y as u16]
+        }
+    }
 }
 
 /// An element of a caller's output buffer, written once by the extraction: the value itself,
@@ -2780,7 +2858,7 @@ mod uninit_tests {
         for room in [0, 1, n - 1, n, n + 3] {
             let mut v = [MaybeUninit::new([9.0f32; 3]); 32];
             assert_eq!(
-                rf.write_vertices(&mut scratch, sel, &mut v[..room]),
+                rf.write_vertices::<[f32; 3], _>(&mut scratch, sel, &mut v[..room]),
                 room.min(n)
             );
         }
