@@ -1,13 +1,14 @@
 //! Quick refinement timings on the bundled Puget Sound DEM, fastest of `RUNS` (default 30) runs
 //! per case (the fastest run is the least disturbed on a shared machine): view-independent
 //! extraction at E = 5 and 50 m and view-dependent refinement with culling at 0.5, 1 and 4 px,
-//! every layout (and, on the full layout, `Refiner::count` alone: the `full-count` rows).
+//! every layout (and, on the full layout, `Refiner::count` alone: the `full-count` rows, and the
+//! list with grid-coordinate vertices: `full-grid-pc`).
 //!
 //! `cargo run --release -p relief-benches --example refine_probe` (`RUNS=n`, `FILTER="vd tau=1"`)
 
 use relief_core::refine::{
     hierarchy_len, pack_records, preprocess, preprocess_compact, records_len, scratch_len,
-    triangle_bound, Criterion, RecordLayout, Refiner, VertexRecord, View,
+    triangle_bound, Criterion, MeshVertex, RecordLayout, Refiner, VertexRecord, View,
 };
 use relief_core::Heightfield;
 use std::hint::black_box;
@@ -41,6 +42,8 @@ fn main() {
     let scratch = scratch.as_mut_slice();
     let mut verts = Buffer::<[f32; 3]>::new(n, huge);
     let verts = verts.as_mut_slice();
+    let mut grid = Buffer::<[u16; 2]>::new(n, huge);
+    let grid = grid.as_mut_slice();
     let mut tris = Buffer::<[u32; 3]>::new(triangle_bound(w, h), huge);
     let tris = tris.as_mut_slice();
     let cam = camera(BENCH_EYE_X);
@@ -58,6 +61,7 @@ fn main() {
         for (lname, hier, call) in [
             ("full", &full, Call::Triangles),
             ("full-pc", &full, Call::Popcnt),
+            ("full-grid-pc", &full, Call::GridPopcnt),
             ("full-count", &full, Call::Count),
             ("compact", &compact, Call::Triangles),
             ("compact-pc", &compact, Call::Popcnt),
@@ -65,7 +69,7 @@ fn main() {
             ("rec-il", &il, Call::Triangles),
         ] {
             // The `-pc` rows: `triangles_popcnt` (where the CPU has it).
-            if call == Call::Popcnt && !popcnt() {
+            if matches!(call, Call::Popcnt | Call::GridPopcnt) && !popcnt() {
                 continue;
             }
             if !format!("{name} {lname}").contains(&filter) {
@@ -79,13 +83,14 @@ fn main() {
                 c = black_box(match call {
                     Call::Triangles => r.triangles(scratch, verts, tris).unwrap(),
                     Call::Popcnt => triangles_popcnt(&r, scratch, verts, tris),
+                    Call::GridPopcnt => triangles_popcnt(&r, scratch, grid, tris),
                     Call::Count => r.count(scratch).unwrap(),
                 });
                 best = best.min(s.elapsed().as_secs_f64() * 1e3);
             }
             let c: relief_core::refine::FrameCounts = c;
             println!(
-                "{name:12} {lname:10} {:>8} tris {best:8.3} ms {:7.1} M tris/s",
+                "{name:12} {lname:12} {:>8} tris {best:8.3} ms {:7.1} M tris/s",
                 c.triangles,
                 c.triangles as f64 / best / 1e3
             );
@@ -100,6 +105,8 @@ enum Call {
     Triangles,
     /// `Refiner::triangles_popcnt`.
     Popcnt,
+    /// `Refiner::triangles_popcnt` with grid-coordinate vertices (`[u16; 2]`, no heights read).
+    GridPopcnt,
     /// `Refiner::count` (what a frame needs, no output: the `-count` row).
     Count,
 }
@@ -112,10 +119,10 @@ fn popcnt() -> bool {
 }
 
 /// `Refiner::triangles_popcnt` (only called where [`popcnt`] said yes).
-fn triangles_popcnt(
+fn triangles_popcnt<V: MeshVertex>(
     r: &Refiner<'_, '_, Heightfield<'_, f32>>,
     s: &mut [u64],
-    v: &mut [[f32; 3]],
+    v: &mut [V],
     t: &mut [[u32; 3]],
 ) -> relief_core::refine::FrameCounts {
     #[cfg(target_arch = "x86_64")]
