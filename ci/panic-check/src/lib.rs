@@ -402,6 +402,13 @@ pub unsafe extern "C" fn pc_refine(
             )
             .map_or(0.0, |c| c.indices as f64);
         acc += r
+            .inout_strip(
+                view_mut(scratch, scratch_len),
+                view_mut(verts.cast::<[u16; 2]>(), verts_len),
+                view_mut(strip, strip_len),
+            )
+            .map_or(0.0, |c| c.indices as f64);
+        acc += r
             .morph(view_mut(scratch, scratch_len), view_mut(morph, morph_len))
             .unwrap_or(0) as f64;
     }

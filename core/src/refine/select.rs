@@ -936,8 +936,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
     /// [`Error::SizeOverflow`] if the grid's coordinates do not fit vertex type `P`.
     #[inline(always)]
-    fn fits_vertex<P: MeshVertex>(&self) -> Result<(), Error> {
-        let most = u64::from(self.g.width().max(self.g.height())) - 1;
+    pub(crate) fn fits_vertex<P: MeshVertex>(&self) -> Result<(), Error> {
+        let most = u64::from(self.g.width().max(self.g.height())).saturating_sub(1);
         if most > P::MAX_COORD {
             return Err(Error::SizeOverflow);
         }

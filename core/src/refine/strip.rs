@@ -6,7 +6,7 @@
 //! sides are always refined (the four base triangles of SOAR, chapter 4.5). A culled vertex is
 //! treated as inactive: its triangles are drawn coarse (outside the view), as in SOAR.
 
-use super::select::{marks, need, rank, BitOrder, Decision, Marks, Refiner};
+use super::select::{marks, need, rank, BitOrder, Decision, Marks, MeshVertex, Refiner};
 use super::StripCounts;
 use crate::{Error, Terrain};
 
@@ -291,14 +291,16 @@ impl<T: Terrain, O: Out> Strip<'_, '_, '_, T, O> {
 
 impl<T: Terrain> Refiner<'_, '_, T> {
     /// Seed 004's in/out-edge generalized triangle strip (Balogh 2003, chapter 5.1) for a
-    /// square `(2^k+1)^2` grid: fills `vertices` and `strip` (indices; every three consecutive
+    /// square `(2^k+1)^2` grid: fills `vertices` (positions or grid coordinates, see
+    /// [`MeshVertex`]) and `strip` (indices; every three consecutive
     /// indices form a triangle, counter-clockwise seen from +z on even positions and clockwise on
     /// odd ones, degenerate triangles included) and returns the counts.
     ///
     /// The square's centre and side midpoints are always refined; culled vertices are treated as
     /// inactive (their triangles drawn coarse, as SOAR does). Other grid sizes:
     /// [`Error::InvalidParameter`] (use [`Refiner::triangles`]). Buffers too small:
-    /// [`Error::BufferTooSmall`].
+    /// [`Error::BufferTooSmall`]; coordinates that do not fit the vertex type:
+    /// [`Error::SizeOverflow`].
     ///
     /// ```
     /// use relief_core::refine::{preprocess, scratch_len, strip_bound, Criterion, Refiner};
@@ -312,10 +314,10 @@ impl<T: Terrain> Refiner<'_, '_, T> {
     /// let c = rf.inout_strip(&mut vec![0; scratch_len(5, 5)], &mut v, &mut s).unwrap();
     /// assert_eq!((c.vertices, c.triangles), (9, 8)); // flat: the four base triangles, halved
     /// ```
-    pub fn inout_strip(
+    pub fn inout_strip<P: MeshVertex>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [[f32; 3]],
+        vertices: &mut [P],
         strip: &mut [u32],
     ) -> Result<StripCounts, Error> {
         self.strip(scratch, vertices, strip, false)
@@ -338,22 +340,23 @@ impl<T: Terrain> Refiner<'_, '_, T> {
     /// let c = rf.soar_strip(&mut vec![0; scratch_len(5, 5)], &mut v, &mut s).unwrap();
     /// assert_eq!((c.vertices, c.triangles), (5, 4)); // flat: the four base triangles
     /// ```
-    pub fn soar_strip(
+    pub fn soar_strip<P: MeshVertex>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [[f32; 3]],
+        vertices: &mut [P],
         strip: &mut [u32],
     ) -> Result<StripCounts, Error> {
         self.strip(scratch, vertices, strip, true)
     }
 
-    fn strip(
+    fn strip<P: MeshVertex>(
         &self,
         scratch: &mut [u64],
-        vertices: &mut [[f32; 3]],
+        vertices: &mut [P],
         strip: &mut [u32],
         soar: bool,
     ) -> Result<StripCounts, Error> {
+        self.fits_vertex::<P>()?;
         if !self.g.is_square() {
             return Err(Error::InvalidParameter {
                 name: "strip grid (needs a (2^k+1) x (2^k+1) grid)",

@@ -221,6 +221,20 @@ fn strips_draw_the_list_mesh(soar: bool) {
         let hi = preprocess_compact(&hf, &mut er).unwrap();
         let r = Refiner::new(&hi, &hf, Criterion::MaxError(e)).unwrap();
         let (v, st, c) = strip(&r, soar);
+        // With grid coordinates: the same strip, each vertex's column and row.
+        let mut sc = vec![0; scratch_len(n, n)];
+        let mut g = vec![[0u16; 2]; (n * n) as usize];
+        let mut st2 = vec![0; strip_bound(n, n)];
+        let c2 = if soar {
+            r.soar_strip(&mut sc, &mut g, &mut st2).unwrap()
+        } else {
+            r.inout_strip(&mut sc, &mut g, &mut st2).unwrap()
+        };
+        assert_eq!(c2, c);
+        assert_eq!(st2[..c.indices], st[..c.indices]);
+        for (g, p) in g[..c.vertices].iter().zip(&v) {
+            assert_eq!([g[0] as f32, g[1] as f32], [p[0], p[1]]);
+        }
         let tris = decode(&st[..c.indices]);
         assert_eq!(tris.len(), c.triangles);
         let m = Mesh {
