@@ -1293,8 +1293,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         }
     }
 
-    /// Writes the positions of the selected vertices, in vertex order: the touched words of
-    /// sparse marks, every word of dense ones. Returns how many it wrote.
+    /// Writes the selected vertices (positions or grid coordinates, [`MeshVertex`]), in vertex
+    /// order: the touched words of sparse marks, every word of dense ones. Returns how many it
+    /// wrote.
     pub(crate) fn write_vertices<P: MeshVertex, V: Slot<P>>(
         &self,
         scratch: &mut [u64],
@@ -1307,7 +1308,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         self.write_vertices_in(m.bits, m.selected_words(sel.sparse), vertices)
     }
 
-    /// Writes the positions of the marked vertices of bitmap words `words` (increasing);
+    /// Writes the marked vertices of bitmap words `words` (increasing) as `P`;
     /// returns how many it wrote (all of them, unless `vertices` is shorter).
     /// View-dependent refinement from records takes the heights from the records (the terrain's
     /// heights, packed): the traversal has just read them, while the terrain's rows are cold
