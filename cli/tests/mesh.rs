@@ -228,6 +228,27 @@ fn bad_input_is_one_line_and_exit_2() {
             "--out",
             o,
         ],
+        // Grid vertices time one grid's refinement only.
+        vec![
+            "--max-error",
+            "1",
+            "--method",
+            "tin",
+            "--vertices",
+            "grid",
+            "--out",
+            o,
+        ],
+        vec![
+            "--max-error",
+            "1",
+            "--edit",
+            "4,4,2,1",
+            "--vertices",
+            "grid",
+            "--out",
+            o,
+        ],
     ];
     for c in cases {
         let args: Vec<&str> = base.iter().copied().chain(c.iter().copied()).collect();

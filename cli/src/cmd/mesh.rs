@@ -194,6 +194,15 @@ fn record_layout(layout: Layout) -> Option<RecordLayout> {
 
 /// Runs `relief mesh`.
 pub fn run(a: &MeshArgs) -> CliResult {
+    let plain = a.tile_size.is_none()
+        && a.edit.is_empty()
+        && a.detail.detail.is_none()
+        && a.method == Method::Rqt;
+    if a.vertices == VertexFormat::Grid && !plain {
+        return Err(CliError(
+            "relief mesh --vertices grid times the refinement of one grid only (not with --tile-size, --edit, --detail or --method tin)".into(),
+        ));
+    }
     if let (Some(size), Some(dir)) = (a.tile_size, &a.out_dir) {
         let (dem, _) = a.dem.load()?;
         let view = match (a.max_error, a.eye, a.target, a.size, a.pixel_error) {
