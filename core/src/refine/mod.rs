@@ -13,7 +13,8 @@
 //!    (every vertex with error `> E`) or view-dependent (SOAR's projected error from the nearest
 //!    point of the bounding volume against a pixel threshold), with hierarchical frustum culling
 //!    (active-plane mask) and lazy culling below a chosen level. Output: an indexed triangle list,
-//!    SOAR's generalized triangle strip, or seed 004's in/out-edge strip.
+//!    SOAR's generalized triangle strip, or seed 004's in/out-edge strip, with vertices as
+//!    positions or as grid coordinates ([`MeshVertex`]).
 //!
 //! Bytes per vertex of preprocessed data (besides the heights, which stay in the caller's
 //! heightfield): 8 for [`preprocess`] (`f32` error and `f32` radius), 2 for
