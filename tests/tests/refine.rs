@@ -7,7 +7,7 @@ use relief_core::glam::Vec3;
 use relief_core::refine::{
     coverage_len, hierarchy_len, pack_records, preprocess, preprocess_compact, preprocess_with,
     records_len, scratch_len, strip_bound, vertical_error, Criterion, FrameCounts, Hierarchy,
-    PreprocessOptions, RecordLayout, Refiner, VertexRecord, View,
+    PreprocessOptions, RecordLayout, Refiner, UninitBuffers, VertexRecord, View,
 };
 use relief_core::{Camera, Error, Heightfield, Scale, Terrain};
 use relief_io::{read_dem, Format, ReadOptions};
@@ -48,21 +48,14 @@ fn same_as_grid_vertices<T: Terrain>(
     type Call<'r> = Box<
         dyn Fn(&mut [u64], &mut [[u16; 2]], &mut [[u32; 3]]) -> Result<FrameCounts, Error> + 'r,
     >;
-    // The uninitialised builds write into `MaybeUninit` copies, then hand the values back.
-    let uninit = |s: &mut [u64], g: &mut [[u16; 2]], o: &mut [[u32; 3]], popcnt: bool| {
+    // The uninitialised builds write into `MaybeUninit` copies through `call`, then hand the
+    // values back.
+    type UninitCall<'r> =
+        dyn Fn(&mut [u64], UninitBuffers<'_, '_, [u16; 2]>) -> Result<FrameCounts, Error> + 'r;
+    let uninit = |s: &mut [u64], g: &mut [[u16; 2]], o: &mut [[u32; 3]], call: &UninitCall<'_>| {
         let mut g2: Vec<_> = g.iter().map(|&x| MaybeUninit::new(x)).collect();
         let mut o2: Vec<_> = o.iter().map(|&x| MaybeUninit::new(x)).collect();
-        let (gb, ob) = (&mut g2[..], &mut o2[..]);
-        let got = if popcnt {
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: only called where the CPU has popcnt.
-            let got = unsafe { r.triangles_uninit_popcnt(s, move |_| (gb, ob)) };
-            #[cfg(not(target_arch = "x86_64"))]
-            let got = r.triangles_uninit(s, move |_| (gb, ob));
-            got
-        } else {
-            r.triangles_uninit(s, move |_| (gb, ob))
-        };
+        let got = call(s, (&mut g2[..], &mut o2[..]));
         // SAFETY: every element was initialised above.
         unsafe {
             for (x, y) in g.iter_mut().zip(&g2) {
@@ -76,14 +69,20 @@ fn same_as_grid_vertices<T: Terrain>(
     };
     let mut calls: Vec<Call<'_>> = vec![Box::new(|s, g, o| r.triangles(s, g, o))];
     if view_independent {
-        calls.push(Box::new(|s, g, o| uninit(s, g, o, false)));
+        calls.push(Box::new(|s, g, o| {
+            uninit(s, g, o, &|s, b| r.triangles_uninit(s, move |_| b))
+        }));
     }
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("popcnt") {
-        // SAFETY: the CPU has popcnt.
+        // SAFETY (both): the CPU has popcnt.
         calls.push(Box::new(|s, g, o| unsafe { r.triangles_popcnt(s, g, o) }));
         if view_independent {
-            calls.push(Box::new(|s, g, o| uninit(s, g, o, true)));
+            calls.push(Box::new(|s, g, o| {
+                uninit(s, g, o, &|s, b| unsafe {
+                    r.triangles_uninit_popcnt(s, move |_| b)
+                })
+            }));
         }
     }
     let sc = t.scale();

@@ -813,22 +813,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         // of a split at once, so their two record loads overlap); the second root below the
         // first.
         let mut stack = [(0u64, 0u64, 0u64, 0u8, Decision::Keep); LEAN_STACK];
-        let (l0, r0, a0) = (p(0, 0), p(n, n), p(0, n));
-        let (l1, r1, a1) = (p(n, n), p(0, 0), p(n, 0));
-        stack[0] = (
-            l0,
-            r0,
-            a0,
-            0,
-            self.lean_decide(v, f, sink, l0, r0, v.mask, 0),
-        );
-        stack[1] = (
-            l1,
-            r1,
-            a1,
-            0,
-            self.lean_decide(v, f, sink, l1, r1, v.mask, 0),
-        );
+        let roots = [(p(0, 0), p(n, n), p(0, n)), (p(n, n), p(0, 0), p(n, 0))];
+        for (e, (l, r, a)) in stack.iter_mut().zip(roots) {
+            *e = (l, r, a, 0, self.lean_decide(v, f, sink, l, r, v.mask, 0));
+        }
         let mut sp = 2usize;
         while sp > 0 {
             sp -= 1;
