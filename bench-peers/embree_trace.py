@@ -4,7 +4,8 @@ triangulation of CONVENTIONS.md (cell (x, y) split along (x, y)-(x+1, y+1)).
 usage: embree_trace.py RELIEF_BIN RAW.f32 W H DX DY VIEW WxH METHOD ROUNDS
 
 METHOD is a `relief trace --method` name, or `maxmip-scalar` for max-mip ray by ray
-(`--method maxmip --no-packet`; plain `maxmip` uses the AVX-512 packet path where the CPU has it).
+(`--method maxmip --no-packet`; plain `maxmip` uses the AVX-512 packet path where the CPU has it),
+or `maxmip-wide` for max-mip ray by ray through sixteen-wide nodes (`--no-packet --wide`, AVX-512F).
 
 RAW.f32 holds the heights in world units (make it with dem_to_raw.py; for the bundled Puget
 Sound PNG scale by 0.1 first or pass the PNG values and accept z in decimetres). VIEW is
@@ -99,9 +100,11 @@ def main():
     scene.run(origins, dirs, output=1)  # builds the BVH
 
     out = tempfile.NamedTemporaryFile(suffix=".f32", delete=False).name
-    extra = []
+    extra, label = [], method
     if method == "maxmip-scalar":
         method, extra = "maxmip", ["--no-packet"]
+    elif method == "maxmip-wide":
+        method, extra = "maxmip", ["--no-packet", "--wide"]
     cmd = [
         relief, "trace", "--dem", raw, "--format", "raw-f32", "--width", str(gw), "--height",
         str(gh), "--dx", str(dx), "--dy", str(dy), "--eye", fmt(eye), "--target", fmt(target),
@@ -164,7 +167,7 @@ def main():
                 "dem": raw,
                 "view": view_name,
                 "rays": int(len(dirs)),
-                "method": method + ("-scalar" if extra else ""),
+                "method": label,
                 "packet": packet,
                 "relief_hits": int(np.isfinite(tr).sum()),
                 "embree_hits": int(np.isfinite(te).sum()),

@@ -143,9 +143,29 @@ fn maxmip_packet_and_ray_by_ray_write_identical_images() {
         assert_eq!(bits(&p), bits(&s), "{surface} ({packet})");
         assert_eq!(vp["cells_visited"], vs["cells_visited"]);
         assert_eq!(vp["steps"], vs["steps"]);
+        assert_eq!(vs["walk"], "neighbour");
+        if avx512f() {
+            // The sixteen-wide walk: the same image and cells, fewer (wider) steps.
+            let (w, vw) = trace(dir.path(), "maxmip", surface, &["--no-packet", "--wide"]);
+            assert_eq!(vw["walk"], "wide-avx512");
+            assert_eq!(bits(&w), bits(&s), "{surface} (wide)");
+            assert_eq!(vw["cells_visited"], vs["cells_visited"]);
+            assert!(vw["steps"].as_u64() < vs["steps"].as_u64(), "{vw} {vs}");
+        }
     }
     let (_, v) = trace(dir.path(), "cell-dda", "triangles", &[]);
     assert_eq!(v["packet"], "off");
+}
+
+fn avx512f() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::is_x86_feature_detected!("avx512f")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
 #[test]
@@ -195,5 +215,13 @@ fn march_view_dependent_samples_are_reported() {
     );
     assert_one_line_error(&bad(&["--view-dependent-samples", "8"]), "march");
     assert_one_line_error(&bad(&["--method", "run-dda", "--no-packet"]), "maxmip");
+    assert_one_line_error(&bad(&["--wide"]), "--no-packet");
+    assert_one_line_error(
+        &bad(&["--method", "run-dda", "--no-packet", "--wide"]),
+        "--no-packet",
+    );
+    if !avx512f() {
+        assert_one_line_error(&bad(&["--no-packet", "--wide"]), "AVX-512F");
+    }
     assert!(!Path::new(&out).exists());
 }

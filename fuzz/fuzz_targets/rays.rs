@@ -96,6 +96,15 @@ fuzz_target!(|data: &[u8]| {
         unsafe { tracer.trace_maxmip_packet_avx512(&rays, &mip, &mut simd) }.unwrap();
         assert_eq!(simd, out);
     }
+    // The sixteen-wide walk: the same hit and the same cells tested.
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx512f") {
+        for (r, t) in rays.iter().zip(&out) {
+            // SAFETY: the CPU has AVX-512F.
+            let wide = unsafe { tracer.trace_maxmip_wide_avx512(r, &mip) }.unwrap();
+            assert_eq!((wide.hit, wide.cells), (t.hit, t.cells));
+        }
+    }
     let ext = (f64::from(w - 1), f64::from(h - 1));
     for tr in [a, b, c, m.trace] {
         if let Some(hit) = tr.hit {

@@ -5,7 +5,10 @@
 //! HARD_CASES.md (vertices, grid lines, diagonals, axis-aligned, straight down, grazing,
 //! starting inside, horizontal above the terrain, subnormal direction components, offsets of 1e6, tiny and huge height
 //! scales, 2 x 2 grids), in packets of every length around the lane count, and on a pyramid
-//! too tall for the AVX-512 lane tables.
+//! too tall for the AVX-512 lane tables. The sixteen-wide walk (`trace_maxmip_wide_avx512`,
+//! where the CPU has AVX-512F) gives the same hits (bit for bit) and tests the same cells on
+//! all of these rays (its step counts differ: nodes, not neighbour steps); the grids include
+//! pyramids with an even and an odd number of levels above the cells, and a single cell.
 
 use relief_core::glam::{DVec3, Vec3};
 use relief_core::ray::{MaxMip, Ray, RayTracer, Trace, PACKET_LANES};
@@ -79,18 +82,44 @@ fn assert_packets_equal(
             );
             // Bit for bit, signs of zero included (`==` on floats equates -0 and +0).
             if let (Some(gh), Some(sh)) = (g.hit, s.hit) {
-                let bits = |h: relief_core::ray::Hit| {
-                    (
-                        h.t.to_bits(),
-                        h.position.to_array().map(f64::to_bits),
-                        h.normal.to_array().map(f32::to_bits),
-                    )
-                };
-                assert_eq!(bits(gh), bits(sh), "{name}: hit bits differ for ray {i}");
+                assert_eq!(
+                    hit_bits(gh),
+                    hit_bits(sh),
+                    "{name}: hit bits differ for ray {i}"
+                );
+            }
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx512f") {
+        for (i, (r, s)) in rays.iter().zip(&scalar).enumerate() {
+            // SAFETY: the CPU has AVX-512F.
+            let g = unsafe { t.trace_maxmip_wide_avx512(r, mip) }.unwrap();
+            assert_eq!(
+                (g.hit, g.cells),
+                (s.hit, s.cells),
+                "wide walk differs for ray {i} {r:?} ({:?})",
+                t.surface()
+            );
+            if let (Some(gh), Some(sh)) = (g.hit, s.hit) {
+                assert_eq!(
+                    hit_bits(gh),
+                    hit_bits(sh),
+                    "wide: hit bits differ for ray {i}"
+                );
             }
         }
     }
     scalar.iter().filter(|s| s.hit.is_some()).count()
+}
+
+/// A hit's bits: `t`, position and normal (`==` on floats equates -0 and +0).
+fn hit_bits(h: relief_core::ray::Hit) -> (u64, [u64; 3], [u32; 3]) {
+    (
+        h.t.to_bits(),
+        h.position.to_array().map(f64::to_bits),
+        h.normal.to_array().map(f32::to_bits),
+    )
 }
 
 #[test]
@@ -290,6 +319,9 @@ fn packet_paths_reject_bad_buffers() {
             assert!(t5
                 .trace_maxmip_packet_avx512(&rays, &mip, &mut out)
                 .is_err());
+            // The sixteen-wide walk checks the pyramid's grid too (AVX-512F is enough).
+            assert!(t5.trace_maxmip_wide_avx512(&rays[0], &mip).is_err());
+            assert!(t.trace_maxmip_wide_avx512(&rays[0], &mip).is_ok());
         }
     }
 }

@@ -85,6 +85,11 @@ pub struct TraceArgs {
     /// comparisons).
     #[arg(long)]
     no_packet: bool,
+    /// Max-mip only, with --no-packet: trace ray by ray through sixteen-wide nodes (two
+    /// pyramid levels a step, sixteen children tested in AVX-512 lanes) instead of the
+    /// neighbour walk; the same hits and cells. Needs a CPU with AVX-512F.
+    #[arg(long)]
+    wide: bool,
     /// Benchmarking aid: after the image, time it again on this thread in chunks of K
     /// consecutive rays, each chunk --chunk-reps times, and report the sum of the fastest
     /// time of each chunk (JSON `trace_ms_chunked`, `rays_per_s_chunked`): on a loaded machine
@@ -158,6 +163,15 @@ fn has_avx512() -> bool {
     false
 }
 
+/// Whether this CPU runs the sixteen-wide walk (AVX-512F).
+fn has_avx512f() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx512f") {
+        return true;
+    }
+    false
+}
+
 /// The packet variant this CPU runs: `avx512` where detected, else `portable` (ray by ray).
 fn packet_kind() -> &'static str {
     if has_avx512() {
@@ -165,6 +179,23 @@ fn packet_kind() -> &'static str {
     } else {
         "portable"
     }
+}
+
+/// One max-mip ray, through the sixteen-wide walk where `wide` (the caller checked AVX-512F)
+/// or the neighbour walk.
+fn trace_one(
+    tracer: &RayTracer<'_, Heightfield<'_, f32>>,
+    ray: &Ray,
+    mip: &MaxMip<'_>,
+    wide: bool,
+) -> Result<Trace, relief_core::Error> {
+    #[cfg(target_arch = "x86_64")]
+    if wide {
+        // SAFETY: `run` accepts --wide only where the CPU has AVX-512F.
+        return unsafe { tracer.trace_maxmip_wide_avx512(ray, mip) };
+    }
+    let _ = wide;
+    tracer.trace_maxmip(ray, mip)
 }
 
 /// Max-mip packet tracing with the best variant for this CPU (same results for every variant).
@@ -208,6 +239,14 @@ pub fn run(a: &TraceArgs) -> CliResult {
         return Err(CliError(
             "--no-packet only applies to --method maxmip".into(),
         ));
+    }
+    if a.wide && !(a.method == Method::Maxmip && a.no_packet) {
+        return Err(CliError(
+            "--wide only applies to --method maxmip with --no-packet".into(),
+        ));
+    }
+    if a.wide && !has_avx512f() {
+        return Err(CliError("--wide needs a CPU with AVX-512F".into()));
     }
     if a.threads == Some(0) {
         return Err(CliError("--threads must be at least 1".into()));
@@ -292,7 +331,9 @@ pub fn run(a: &TraceArgs) -> CliResult {
                 (Accel::Run(acc), _) => {
                     tracer.trace_run_dda(ray, acc).map_err(|e| e.to_string())?
                 }
-                (Accel::Mip(mip), _) => tracer.trace_maxmip(ray, mip).map_err(|e| e.to_string())?,
+                (Accel::Mip(mip), _) => {
+                    trace_one(&tracer, ray, mip, a.wide).map_err(|e| e.to_string())?
+                }
                 (Accel::None, Method::March) => {
                     let m = tracer.trace_march(ray, &opts).map_err(|e| e.to_string())?;
                     st.max_step_cells = st.max_step_cells.max(m.step_cells);
@@ -317,7 +358,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
             }
             (Accel::Mip(mip), _) => {
                 for (r, o) in rays.iter().zip(out.iter_mut()) {
-                    *o = tracer.trace_maxmip(r, mip).map_err(|e| e.to_string())?;
+                    *o = trace_one(&tracer, r, mip, a.wide).map_err(|e| e.to_string())?;
                 }
                 Ok(())
             }
@@ -432,6 +473,11 @@ pub fn run(a: &TraceArgs) -> CliResult {
             "cells_visited": stats.cells,
             "steps": stats.steps,
             "packet": packet,
+            "walk": match (a.method, a.wide) {
+                (Method::Maxmip, true) => "wide-avx512",
+                (Method::Maxmip, false) => "neighbour",
+                _ => "none",
+            },
             "trace_ms_includes_ray_setup": !pre,
             "out": a.out.display().to_string(),
         });

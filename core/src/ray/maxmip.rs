@@ -617,7 +617,7 @@ impl<T: Terrain> RayTracer<'_, T> {
 
     /// The whole walk of one ray, into `out` (reset by the caller).
     #[inline(always)]
-    fn mip_walk(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) {
+    pub(super) fn mip_walk(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) {
         if let Some(mut w) = self.mip_start(ray, mip, out) {
             let climb = self.climbs(&w.lr);
             // Bounded: every step counts towards `mip.bound`, after which `mip_step` stops.
