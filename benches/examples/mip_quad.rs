@@ -27,15 +27,6 @@
 
 mod common;
 
-/// Interleaves the bits of `v` (up to 16) with zeros.
-fn spread(v: u32) -> u32 {
-    let mut x = v & 0xffff;
-    x = (x | (x << 8)) & 0x00ff_00ff;
-    x = (x | (x << 4)) & 0x0f0f_0f0f;
-    x = (x | (x << 2)) & 0x3333_3333;
-    (x | (x << 1)) & 0x5555_5555
-}
-
 /// A complete quadtree of cell maxima over a `2^n x 2^n` domain, each level in Morton order
 /// (the four children of node `m` are `4m .. 4m + 4`); cells outside the grid are `-inf`.
 struct Quad {
@@ -48,22 +39,7 @@ impl Quad {
     fn new(g: &common::LocalGrid) -> Quad {
         let (cw, ch) = (g.w - 1, g.h - 1);
         let n = cw.max(ch).next_power_of_two().trailing_zeros();
-        let side = 1usize << n;
-        let mut l0 = vec![f32::NEG_INFINITY; side * side];
-        for y in 0..ch {
-            for x in 0..cw {
-                l0[(spread(x as u32) | spread(y as u32) << 1) as usize] = g.cell_max(x, y);
-            }
-        }
-        let mut levels = vec![l0];
-        while levels.last().is_some_and(|l| l.len() > 1) {
-            let c = levels.last().unwrap();
-            let p = c
-                .chunks_exact(4)
-                .map(|q| q[0].max(q[1]).max(q[2]).max(q[3]))
-                .collect();
-            levels.push(p);
-        }
+        let levels = common::morton_levels(g, n, 4);
         Quad { levels, n }
     }
 }

@@ -1,5 +1,5 @@
 //! Shared by the refinement examples (`refine_scale`, `refine_mapped`, `refine_pages`,
-//! `refine_probe`) and the yardsticks (`vd_lean`, `mip_lean`, `mip_quad`): the bundled DEM, the benchmark
+//! `refine_probe`) and the yardsticks (`vd_lean`, `mip_lean`, `mip_quad`, `mip_sixteen`): the bundled DEM, the benchmark
 //! camera, the upsampled test grids and the warm / cold frame timing.
 // Each example uses part of this module.
 #![allow(dead_code)]
@@ -618,6 +618,40 @@ impl LocalGrid {
         }
         best
     }
+}
+
+/// Interleaves the bits of `v` (up to 16) with zeros.
+fn spread(v: u32) -> u32 {
+    let mut x = v & 0xffff;
+    x = (x | (x << 8)) & 0x00ff_00ff;
+    x = (x | (x << 4)) & 0x0f0f_0f0f;
+    x = (x | (x << 2)) & 0x3333_3333;
+    (x | (x << 1)) & 0x5555_5555
+}
+
+/// The maxima of `g`'s cells over the `2^n x 2^n` square from the origin in Morton order
+/// (cells outside the grid `-inf`), then each coarser level as the maxima of `group`
+/// consecutive entries (4: every level of a quadtree; 16: every other level), up to one node;
+/// `levels[0]` holds the cells (the ray yardsticks `mip_quad` and `mip_sixteen`).
+pub fn morton_levels(g: &LocalGrid, n: u32, group: usize) -> Vec<Vec<f32>> {
+    let (cw, ch) = (g.w - 1, g.h - 1);
+    let side = 1usize << n;
+    let mut l0 = vec![f32::NEG_INFINITY; side * side];
+    for y in 0..ch {
+        for x in 0..cw {
+            l0[(spread(x as u32) | spread(y as u32) << 1) as usize] = g.cell_max(x, y);
+        }
+    }
+    let mut levels = vec![l0];
+    while levels.last().is_some_and(|l| l.len() > 1) {
+        let c = levels.last().unwrap();
+        let p = c
+            .chunks_exact(group)
+            .map(|q| q.iter().fold(f32::NEG_INFINITY, |a, &b| a.max(b)))
+            .collect();
+        levels.push(p);
+    }
+    levels
 }
 
 /// A ray yardstick: the hit parameter of a grid-local ray ([`MipRay`]), or `None`.
