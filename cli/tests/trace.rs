@@ -145,11 +145,13 @@ fn maxmip_packet_and_ray_by_ray_write_identical_images() {
         assert_eq!(vp["steps"], vs["steps"]);
         assert_eq!(vs["walk"], "neighbour");
         if avx512f() {
-            // The sixteen-wide walk: the same image and cells, fewer (wider) steps.
+            // The sixteen-wide walk: the same image, the same cells or fewer (cells the rays
+            // only touch at a point are skipped), fewer (wider) steps.
             let (w, vw) = trace(dir.path(), "maxmip", surface, &["--no-packet", "--wide"]);
             assert_eq!(vw["walk"], "wide-avx512");
             assert_eq!(bits(&w), bits(&s), "{surface} (wide)");
-            assert_eq!(vw["cells_visited"], vs["cells_visited"]);
+            assert!(vw["cells_visited"].as_u64() <= vs["cells_visited"].as_u64());
+            assert!(vw["cells_visited"].as_u64() > Some(0));
             assert!(vw["steps"].as_u64() < vs["steps"].as_u64(), "{vw} {vs}");
         }
     }

@@ -4,7 +4,7 @@
 //! unit normal; the exact methods (cell DDA, run DDA, max-mip) agree on hit or miss and on `t`
 //! except for rays that graze the surface (checked by re-tracing the other method's answer); the
 //! max-mip packet paths (portable, and AVX-512 where the CPU has it) give the max-mip traces
-//! exactly.
+//! exactly, and the sixteen-wide walk its hits.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -96,13 +96,15 @@ fuzz_target!(|data: &[u8]| {
         unsafe { tracer.trace_maxmip_packet_avx512(&rays, &mip, &mut simd) }.unwrap();
         assert_eq!(simd, out);
     }
-    // The sixteen-wide walk: the same hit and the same cells tested.
+    // The sixteen-wide walk: the same hit, the same cells tested or fewer (cells the ray only
+    // touches at a point are skipped).
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("avx512f") {
         for (r, t) in rays.iter().zip(&out) {
             // SAFETY: the CPU has AVX-512F.
             let wide = unsafe { tracer.trace_maxmip_wide_avx512(r, &mip) }.unwrap();
-            assert_eq!((wide.hit, wide.cells), (t.hit, t.cells));
+            assert_eq!(wide.hit, t.hit);
+            assert!(wide.cells <= t.cells, "{wide:?} {t:?}");
         }
     }
     let ext = (f64::from(w - 1), f64::from(h - 1));

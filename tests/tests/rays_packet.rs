@@ -6,8 +6,8 @@
 //! starting inside, horizontal above the terrain, subnormal direction components, offsets of 1e6, tiny and huge height
 //! scales, 2 x 2 grids), in packets of every length around the lane count, and on a pyramid
 //! too tall for the AVX-512 lane tables. The sixteen-wide walk (`trace_maxmip_wide_avx512`,
-//! where the CPU has AVX-512F) gives the same hits (bit for bit) and tests the same cells on
-//! all of these rays (its step counts differ: nodes, not neighbour steps); the grids include
+//! where the CPU has AVX-512F) gives the same hits (bit for bit) on all of these rays and
+//! tests the same cells or fewer (its step counts differ: nodes, not neighbour steps); the grids include
 //! pyramids with an even and an odd number of levels above the cells, and a single cell.
 
 use relief_core::glam::{DVec3, Vec3};
@@ -96,10 +96,17 @@ fn assert_packets_equal(
             // SAFETY: the CPU has AVX-512F.
             let g = unsafe { t.trace_maxmip_wide_avx512(r, mip) }.unwrap();
             assert_eq!(
-                (g.hit, g.cells),
-                (s.hit, s.cells),
+                g.hit,
+                s.hit,
                 "wide walk differs for ray {i} {r:?} ({:?})",
                 t.surface()
+            );
+            // Cells the ray only touches at a point are skipped (`ray/wide.rs`).
+            assert!(
+                g.cells <= s.cells,
+                "ray {i}: {} > {} cells",
+                g.cells,
+                s.cells
             );
             if let (Some(gh), Some(sh)) = (g.hit, s.hit) {
                 assert_eq!(

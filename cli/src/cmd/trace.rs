@@ -87,7 +87,7 @@ pub struct TraceArgs {
     no_packet: bool,
     /// Max-mip only, with --no-packet: trace ray by ray through sixteen-wide nodes (two
     /// pyramid levels a step, sixteen children tested in AVX-512 lanes) instead of the
-    /// neighbour walk; the same hits and cells. Needs a CPU with AVX-512F.
+    /// neighbour walk; the same hits. Needs a CPU with AVX-512F.
     #[arg(long)]
     wide: bool,
     /// Benchmarking aid: after the image, time it again on this thread in chunks of K
