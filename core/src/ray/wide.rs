@@ -52,12 +52,39 @@ const fn order(fx: bool, fy: bool) -> [[u32; 2]; 16] {
     out
 }
 
-/// [`order`] for the four direction octants, indexed `fx | fy << 1`.
-const ORDERS: [[[u32; 2]; 16]; 4] = [
-    order(false, false),
-    order(true, false),
-    order(false, true),
-    order(true, true),
+/// The lanes of one direction octant: [`order`], and the same as `f64` lane values (two
+/// halves) and as tile elements (`row * 4 + column`, for the permute of the maxima).
+struct Lanes {
+    xy: [[u32; 2]; 16],
+    cx: [[f64; 8]; 2],
+    cy: [[f64; 8]; 2],
+    perm: [i32; 16],
+}
+
+const fn lanes(fx: bool, fy: bool) -> Lanes {
+    let xy = order(fx, fy);
+    let mut l = Lanes {
+        xy,
+        cx: [[0.0; 8]; 2],
+        cy: [[0.0; 8]; 2],
+        perm: [0; 16],
+    };
+    let mut j = 0;
+    while j < 16 {
+        l.cx[j / 8][j % 8] = xy[j][0] as f64;
+        l.cy[j / 8][j % 8] = xy[j][1] as f64;
+        l.perm[j] = (xy[j][1] * 4 + xy[j][0]) as i32;
+        j += 1;
+    }
+    l
+}
+
+/// [`lanes`] for the four direction octants, indexed `fx | fy << 1`.
+static LANES: [Lanes; 4] = [
+    lanes(false, false),
+    lanes(true, false),
+    lanes(false, true),
+    lanes(true, true),
 ];
 
 /// Per-ray constants of one horizontal axis.
@@ -190,14 +217,10 @@ impl<T: Terrain> RayTracer<'_, T> {
         };
         let lr = w.lr;
         let oct = usize::from(lr.d.x < 0.0) | usize::from(lr.d.y < 0.0) << 1;
-        let ord = ORDERS.get(oct).copied().unwrap_or(ORDERS[0]);
-        let half = |h: usize, a: usize| -> __m512d {
-            let v: [f64; 8] = core::array::from_fn(|j| ord[8 * h + j][a] as f64);
-            cast(v)
-        };
-        let perm: [i32; 16] = core::array::from_fn(|j| (ord[j][1] * 4 + ord[j][0]) as i32);
-        let axis = |a: usize, o: f64, d: f64, inv: f64, n: u32| Axis {
-            c: [half(0, a), half(1, a)],
+        let ln = &LANES[oct & 3];
+        let ord = &ln.xy;
+        let axis = |c: &[[f64; 8]; 2], o: f64, d: f64, inv: f64, n: u32| Axis {
+            c: [cast(c[0]), cast(c[1])],
             o: _mm512_set1_pd(o),
             inv: _mm512_set1_pd(inv),
             n: _mm512_set1_pd(n as f64),
@@ -205,9 +228,9 @@ impl<T: Terrain> RayTracer<'_, T> {
             zero: d == 0.0,
         };
         let c = Consts {
-            x: axis(0, lr.o.x, lr.d.x, lr.inv[0], mip.nx),
-            y: axis(1, lr.o.y, lr.d.y, lr.inv[1], mip.ny),
-            perm: cast(perm),
+            x: axis(&ln.cx, lr.o.x, lr.d.x, lr.inv[0], mip.nx),
+            y: axis(&ln.cy, lr.o.y, lr.d.y, lr.inv[1], mip.ny),
+            perm: cast(ln.perm),
             oz: _mm512_set1_pd(lr.o.z),
             dz: _mm512_set1_pd(lr.d.z),
             t0: _mm512_set1_pd(lr.t0),
