@@ -8,15 +8,17 @@
 //!   `*-next` rows walk them by `for` loops calling `next`.
 //! - `rays_trace_*`: full tracing of camera rays on the bundled Puget Sound DEM (1025 x 1025,
 //!   160 m spacing, z 0.1), one thread, triangles surface: cell DDA, run DDA (whole-run
-//!   rejection), max-mip; for a camera view and a grazing view.
+//!   rejection), max-mip, and max-mip through sixteen-wide nodes where the CPU has AVX-512F
+//!   (`maxmip-wide`); for a camera view and a grazing view.
 //!
 //! With `RELIEF_RAYS_TABLE=1` it first prints a table of interleaved measurements (A, B, A, B,
 //! ... 31 rounds for traversal, 15 for tracing; the fastest round of each and their ratio), which
 //! is robust against load from other processes on a shared machine; then march error by sample
-//! count; then max-mip ray by ray against the AVX-512 packet path (where the CPU has it), in
-//! rounds and in chunks of 512 rays (fastest of 9 per chunk, summed: see [`chunked`]); the
+//! count; then max-mip ray by ray against the AVX-512 packet path and against the sixteen-wide
+//! walk (where the CPU has them; their hits are checked against ray by ray first), in rounds
+//! and in chunks of 512 rays (fastest of 9 per chunk, summed: see [`chunked`]); the
 //! criterion groups follow. `RELIEF_RAYS_TRAVERSAL=1` prints only the traversal rows,
-//! `RELIEF_RAYS_MIP=1` only the max-mip packet rows.
+//! `RELIEF_RAYS_MIP=1` only the max-mip packet and wide rows.
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use relief_core::glam::{DVec2, Vec3};
@@ -259,6 +261,20 @@ fn tracing(c: &mut Criterion) {
                 hits
             })
         });
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx512f") {
+            g.bench_function("maxmip-wide", |b| {
+                b.iter(|| {
+                    let mut hits = 0u32;
+                    for r in &rays {
+                        // SAFETY: AVX-512F detected above.
+                        let t = unsafe { tracer.trace_maxmip_wide_avx512(black_box(r), &mip) };
+                        hits += t.unwrap().hit.is_some() as u32;
+                    }
+                    hits
+                })
+            });
+        }
         g.finish();
     }
 }
@@ -596,6 +612,49 @@ fn mip_table() {
             );
             println!(
                 "| max-mip, {name} view, chunks of 512 rays (fastest of 9 each): ray by ray (A) vs packet of {PACKET_LANES}, AVX-512 (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
+                n / a,
+                n / b
+            );
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx512f") {
+            // SAFETY (both closures and the check): AVX-512F detected above.
+            let wide = |r: &Ray| unsafe { tracer.trace_maxmip_wide_avx512(r, &mip) }.unwrap();
+            for (r, s) in rays.iter().zip(&scalar) {
+                let w = wide(r);
+                assert_eq!(w.hit, s.hit, "the wide walk's hit differs from ray by ray");
+                assert!(w.cells <= s.cells);
+            }
+            let wd = || {
+                rays.iter()
+                    .map(|r| wide(r).hit.is_some() as u64)
+                    .sum::<u64>()
+            };
+            let (a, b, r) = interleaved(15, mm, wd);
+            println!(
+                "| max-mip, {name} view: ray by ray (A) vs sixteen-wide walk, AVX-512 (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
+                n / a,
+                n / b
+            );
+            let (a, b, r) = chunked(
+                rays.len(),
+                512,
+                9,
+                |rg| {
+                    rays[rg]
+                        .iter()
+                        .map(|r| tracer.trace_maxmip(r, &mip).unwrap().hit.is_some() as u64)
+                        .sum::<u64>()
+                },
+                |rg| {
+                    rays[rg]
+                        .iter()
+                        .map(|r| wide(r).hit.is_some() as u64)
+                        .sum::<u64>()
+                },
+            );
+            println!(
+                "| max-mip, {name} view, chunks of 512 rays (fastest of 9 each): ray by ray (A) vs sixteen-wide walk, AVX-512 (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
                 n / a,
                 n / b
             );
