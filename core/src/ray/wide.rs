@@ -145,6 +145,8 @@ struct Consts {
     perm: __m512i,
     oz: __m512d,
     dz: __m512d,
+    /// The ray descends (`dz < 0`).
+    down: bool,
     t0: __m512d,
     t1: __m512d,
 }
@@ -233,6 +235,7 @@ impl<T: Terrain> RayTracer<'_, T> {
             perm: cast(ln.perm),
             oz: _mm512_set1_pd(lr.o.z),
             dz: _mm512_set1_pd(lr.d.z),
+            down: lr.d.z < 0.0,
             t0: _mm512_set1_pd(lr.t0),
             t1: _mm512_set1_pd(lr.t1),
         };
@@ -340,9 +343,10 @@ impl<T: Terrain> RayTracer<'_, T> {
             let live = live_x & live_y;
             let a = _mm512_max_pd(_mm512_max_pd(c.t0, ax), ay);
             let b = _mm512_min_pd(_mm512_min_pd(c.t1, ex), ey);
-            let za = _mm512_add_pd(c.oz, _mm512_mul_pd(a, c.dz));
-            let zb = _mm512_add_pd(c.oz, _mm512_mul_pd(b, c.dz));
-            let zmin = _mm512_min_pd(za, zb);
+            // The ray's lowest point over the interval: `min(z(a), z(b))` of the neighbour
+            // walk, which is `z(b)` for a descending ray and `z(a)` otherwise (rounding is
+            // monotone, so the same value).
+            let zmin = _mm512_add_pd(c.oz, _mm512_mul_pd(if c.down { b } else { a }, c.dz));
             let enter = live
                 // `<`: a child the ray only touches (an exact corner crossing, a start or
                 // end on its boundary) is not entered; see the function's documentation.
