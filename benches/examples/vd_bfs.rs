@@ -20,6 +20,10 @@
 //!   and on the library's records in `f32` and in `f64`; the same triangles in the same order
 //!   as the stack walk on the same data, and in `f64` on the library's records exactly
 //!   `grid_triangles`' list);
+//! - *pair x2*: the pair walk in `f64` on the library's records with both children's sphere
+//!   tests (below the culled levels) in the two lanes of SSE2 registers (`sse2`, intrinsics) or
+//!   as straight-line pairs of scalar operations left to the compiler (`straight`, the form a
+//!   core without `unsafe` can write); both exactly `grid_triangles`' list (asserted);
 //! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
 //!   records, and `Refiner::triangles` (compact vertices, renumbered) for reference.
 //!
@@ -69,6 +73,12 @@ const LIB: u8 = 2;
 const OWN_LOOK: u8 = 3;
 /// [`LIB`] with the decision in `f64`, as the library makes it.
 const LIB_F64: u8 = 4;
+/// [`LIB_F64`] with the pair walk's two sphere tests in the two lanes of SSE2 registers
+/// (below the culled levels; the same `f64` operations, so the same decisions).
+const LIB_F64_X2: u8 = 5;
+/// [`LIB_F64_X2`] written as straight-line pairs of scalar operations, left to the compiler's
+/// vectorizer (the form the core, which has no `unsafe`, could use).
+const LIB_F64_X2S: u8 = 6;
 
 /// Stack entry kinds of [`Frame::dfs_pair`].
 const CULLED: u32 = 0;
@@ -230,6 +240,73 @@ impl Frame<'_> {
         }
     }
 
+    /// [`Frame::kind`] of two siblings on `level` for [`LIB_F64_X2`]: where no plane is left to
+    /// test, both sphere tests in one pair of `f64` lanes.
+    #[inline(always)]
+    fn kinds_x2<const SSE2: bool>(&self, a: &mut Tri, b: &mut Tri, level: u32) -> (u32, u32) {
+        use std::arch::x86_64::*;
+        if level >= self.v.levels {
+            return (LEAF, LEAF);
+        }
+        if a.planes != 0 && level < self.v.lazy_from {
+            return (
+                self.kind::<LIB_F64>(a, level),
+                self.kind::<LIB_F64>(b, level),
+            );
+        }
+        let (ma, mb) = ((a.l + a.r) >> 1, (b.l + b.r) >> 1);
+        let (ra, rb) = (
+            self.lib[self.index(ma) as usize],
+            self.lib[self.index(mb) as usize],
+        );
+        let ((xa, ya), (xb, yb)) = (xy(ma), xy(mb));
+        let c = &self.v.f64s;
+        let m = if SSE2 {
+            // SAFETY: SSE2 is part of x86-64.
+            unsafe {
+                let pair = |p: f64, q: f64| _mm_set_pd(q, p);
+                let px = _mm_mul_pd(pair(f64::from(xa), f64::from(xb)), _mm_set1_pd(c.sx));
+                let py = _mm_mul_pd(pair(f64::from(ya), f64::from(yb)), _mm_set1_pd(c.sy));
+                let pz = pair(f64::from(ra.z), f64::from(rb.z));
+                let e = pair(f64::from(ra.error_value()), f64::from(rb.error_value()));
+                let r = pair(f64::from(ra.radius_value()), f64::from(rb.radius_value()));
+                let dx = _mm_sub_pd(_mm_set1_pd(c.eye[0]), px);
+                let dy = _mm_sub_pd(_mm_set1_pd(c.eye[1]), py);
+                let dz = _mm_sub_pd(_mm_set1_pd(c.eye[2]), pz);
+                let reach = _mm_add_pd(_mm_mul_pd(e, _mm_set1_pd(c.k)), r);
+                let d2 = _mm_add_pd(
+                    _mm_add_pd(_mm_mul_pd(dx, dx), _mm_mul_pd(dy, dy)),
+                    _mm_mul_pd(dz, dz),
+                );
+                let split = _mm_and_pd(
+                    _mm_cmpgt_pd(e, _mm_setzero_pd()),
+                    _mm_cmpgt_pd(_mm_mul_pd(reach, reach), d2),
+                );
+                _mm_movemask_pd(split)
+            }
+        } else {
+            // Straight-line pairs of the same operations, for the compiler's SLP vectorizer.
+            let (px0, px1) = (f64::from(xa) * c.sx, f64::from(xb) * c.sx);
+            let (py0, py1) = (f64::from(ya) * c.sy, f64::from(yb) * c.sy);
+            let (pz0, pz1) = (f64::from(ra.z), f64::from(rb.z));
+            let (e0, e1) = (f64::from(ra.error_value()), f64::from(rb.error_value()));
+            let (r0, r1) = (f64::from(ra.radius_value()), f64::from(rb.radius_value()));
+            let (dx0, dx1) = (c.eye[0] - px0, c.eye[0] - px1);
+            let (dy0, dy1) = (c.eye[1] - py0, c.eye[1] - py1);
+            let (dz0, dz1) = (c.eye[2] - pz0, c.eye[2] - pz1);
+            let (q0, q1) = (e0 * c.k + r0, e1 * c.k + r1);
+            let (d0, d1) = (
+                dx0 * dx0 + dy0 * dy0 + dz0 * dz0,
+                dx1 * dx1 + dy1 * dy1 + dz1 * dz1,
+            );
+            let s0 = (e0 > 0.0) & (q0 * q0 > d0);
+            let s1 = (e1 > 0.0) & (q1 * q1 > d1);
+            i32::from(s0) | i32::from(s1) << 1
+        };
+        let k = |bit: i32| if m & bit != 0 { SPLIT } else { LEAF };
+        (k(1), k(2))
+    }
+
     /// [`Frame::dfs_stack`] with both children decided when their parent splits, before either
     /// is pushed: the two record loads and decisions are independent, and the branch on a
     /// popped entry's kind reads a value decided long before (same triangles, same order).
@@ -266,8 +343,16 @@ impl Frame<'_> {
                 a: m,
                 planes: t.planes,
             };
-            let ka = self.kind::<SRC>(&mut a, level + 1);
-            let kb = self.kind::<SRC>(&mut b, level + 1);
+            let (ka, kb) = if SRC == LIB_F64_X2 {
+                self.kinds_x2::<true>(&mut a, &mut b, level + 1)
+            } else if SRC == LIB_F64_X2S {
+                self.kinds_x2::<false>(&mut a, &mut b, level + 1)
+            } else {
+                (
+                    self.kind::<SRC>(&mut a, level + 1),
+                    self.kind::<SRC>(&mut b, level + 1),
+                )
+            };
             stack[sp] = (b, level + 1, kb);
             stack[sp + 1] = (a, level + 1, ka);
             sp += 2;
@@ -453,6 +538,9 @@ fn main() {
     let mut out_pair_lib = vec![[0u32; 3]; bound + 1];
     let mut out_pair64 = vec![[0u32; 3]; bound + 1];
     let mut out_pair_lib64 = vec![[0u32; 3]; bound + 1];
+    let mut out_pair_x2 = vec![[0u32; 3]; bound + 1];
+    let mut out_pair_x2s = vec![[0u32; 3]; bound + 1];
+
     let mut tris_g = [
         vec![[0u32; 3]; bound],
         vec![[0u32; 3]; bound],
@@ -529,11 +617,22 @@ fn main() {
         // In `f64` on the library's records the yardstick decides as the library does.
         let nl64 = f.dfs_pair::<LIB_F64>(roots, &mut out2);
         let nlg = rl.grid_triangles(&mut out_lib).unwrap();
+
         assert_eq!(
             &out2[..nl64],
             &out_lib[..nlg],
             "pair f64 differs from grid_triangles"
         );
+        for n in [
+            f.dfs_pair::<LIB_F64_X2>(roots, &mut out2),
+            f.dfs_pair::<LIB_F64_X2S>(roots, &mut out2),
+        ] {
+            assert_eq!(
+                &out2[..n],
+                &out_lib[..nlg],
+                "pair x2 f64 differs from grid_triangles"
+            );
+        }
         let nl2 = f.dfs_pair::<LIB>(roots, &mut out2);
         assert_eq!(
             &out2[..nl2],
@@ -580,6 +679,14 @@ fn main() {
             (
                 "pair, library records",
                 Box::new(|| f.dfs_pair::<LIB>(roots, &mut out_pair_lib)),
+            ),
+            (
+                "pair x2 sse2, library records, f64",
+                Box::new(|| f.dfs_pair::<LIB_F64_X2>(roots, &mut out_pair_x2)),
+            ),
+            (
+                "pair x2 straight, library records, f64",
+                Box::new(|| f.dfs_pair::<LIB_F64_X2S>(roots, &mut out_pair_x2s)),
             ),
             (
                 "stack, f64 decisions",
