@@ -332,3 +332,41 @@ fn packet_paths_reject_bad_buffers() {
         }
     }
 }
+
+/// Regression (the `rays` fuzz target, 2026-12-06): rays that start on a cell boundary and move
+/// away from the cell behind it. The sixteen-wide walk tested that cell over the one point it
+/// touches (one cell more than the neighbour walk, the same hit); it now skips children the
+/// ray only touches at a point. The fuzz input's grid, surface and rays, rebuilt as the target
+/// builds them.
+#[test]
+fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx512f") {
+        let data: [u8; 40] = [
+            4, 3, 255, 253, 0, 0, 0, 64, 0, 0, 0, 64, 3, 255, 253, 0, 0, 0, 64, 0, 0, 0, 64, 251,
+            37, 4, 3, 255, 0, 0, 0, 64, 0, 5, 5, 255, 254, 67, 0, 155,
+        ];
+        let f = |i: usize| f32::from_le_bytes([0, 1, 2, 3].map(|k| data[i + k]));
+        let (w, h) = (6u32, 5u32);
+        let s: Vec<f32> = (0..w * h)
+            .map(|i| f32::from(data.get(28 + i as usize).copied().unwrap_or(0)) - 100.0)
+            .collect();
+        let hf = Heightfield::new(&s, w, h).unwrap();
+        let mut mbuf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
+        let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
+        let (o, d) = (Vec3::new(f(4), f(8), f(12)), Vec3::new(f(16), f(20), f(24)));
+        let mut rays = vec![Ray::new(o, d).unwrap()];
+        rays.extend((1..12u8).filter_map(|k| {
+            let s = f32::from(k) * 0.37;
+            Ray::new(o + Vec3::new(s, -0.5 * s, 0.25 * s), d).ok()
+        }));
+        let t = RayTracer::new(&hf, Surface::Nearest);
+        for r in &rays {
+            let n = t.trace_maxmip(r, &mip).unwrap();
+            // SAFETY: the CPU has AVX-512F.
+            let g = unsafe { t.trace_maxmip_wide_avx512(r, &mip) }.unwrap();
+            assert_eq!(g.hit, n.hit, "{r:?}");
+            assert!(g.cells <= n.cells, "{r:?}: {} > {} cells", g.cells, n.cells);
+        }
+    }
+}
