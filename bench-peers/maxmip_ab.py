@@ -6,7 +6,8 @@ same depth image. No Embree run: for changes to the walk, where the image must n
 
 usage (from the repository root, with the venv of embree_rays.sh, which has numpy and embreex):
     /tmp/venv-embree/bin/python bench-peers/maxmip_ab.py BIN_A BIN_B [BIN_A BIN_B ...]
-env: PACKET=1 times the AVX-512 packets (default: ray by ray, `--no-packet`); ONLY="puget fuji"
+env: PACKET=1 times the AVX-512 packets (default: ray by ray, `--no-packet`); WIDE=1 ray by ray
+through sixteen-wide nodes (`--no-packet --wide`, AVX-512F); ONLY="puget fuji"
 limits the DEMs; SURFACE=bilinear (plane, nearest) traces another surface; SHOW=1 prints each
 view's `relief trace` command (for profiling one view by hand); the DEMs' raw files are kept
 in the temporary folder it names. List a binary twice, alternated, to see the machine's drift.
@@ -40,6 +41,7 @@ def main():
     if not bins:
         sys.exit(__doc__)
     packet = os.environ.get("PACKET", "0") == "1"
+    wide = os.environ.get("WIDE", "0") == "1"
     only = os.environ.get("ONLY", "").split()
     tmp = tempfile.mkdtemp()
     out = os.path.join(tmp, "depth.f32")
@@ -71,7 +73,7 @@ def main():
                     "--target", fmt(target), "--fov", str(fov), "--size", "384x256",
                     "--method", "maxmip", "--surface", os.environ.get("SURFACE", "triangles"), "--threads", "1",
                     "--out", out, "--json", "--chunk-rays", "4096", "--chunk-reps", "9",
-                ] + ([] if packet else ["--no-packet"])
+                ] + ([] if packet else ["--no-packet"]) + (["--wide"] if wide else [])
                 if os.environ.get("SHOW") == "1":
                     print("    " + " ".join(cmd), flush=True)
                 rj = json.loads(subprocess.run(cmd, check=True, capture_output=True).stdout)
