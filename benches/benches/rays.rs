@@ -570,10 +570,27 @@ fn mip_table() {
         let mut out = vec![Trace::default(); rays.len()];
         tracer.trace_maxmip_packet(&rays, &mip, &mut out).unwrap();
         assert_eq!(out, scalar, "packet path differs from ray by ray");
-        let mm = || {
-            rays.iter()
+        // Ray by ray (the A side of every row): hits of a slice of the rays.
+        let by_ray = |rs: &[Ray]| {
+            rs.iter()
                 .map(|r| tracer.trace_maxmip(r, &mip).unwrap().hit.is_some() as u64)
                 .sum::<u64>()
+        };
+        let mm = || by_ray(&rays);
+        // The two rows of one B side: whole views in rounds, and chunks of 512 rays.
+        let rows = |b_side: &str, whole: (f64, f64, f64), chunks: (f64, f64, f64)| {
+            let (a, b, r) = whole;
+            println!(
+                "| max-mip, {name} view: ray by ray (A) vs {b_side} (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
+                n / a,
+                n / b
+            );
+            let (a, b, r) = chunks;
+            println!(
+                "| max-mip, {name} view, chunks of 512 rays (fastest of 9 each): ray by ray (A) vs {b_side} (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
+                n / a,
+                n / b
+            );
         };
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512dq") {
@@ -586,23 +603,13 @@ fn mip_table() {
                 unsafe { tracer.trace_maxmip_packet_avx512(&rays, &mip, &mut o3) }.unwrap();
                 o3.iter().filter(|t| t.hit.is_some()).count() as u64
             };
-            let (a, b, r) = interleaved(15, mm, pk3);
-            println!(
-                "| max-mip, {name} view: ray by ray (A) vs packet of {PACKET_LANES}, AVX-512 (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
-                n / a,
-                n / b
-            );
+            let whole = interleaved(15, mm, pk3);
             let mut o4 = vec![Trace::default(); rays.len()];
-            let (a, b, r) = chunked(
+            let chunks = chunked(
                 rays.len(),
                 512,
                 9,
-                |rg| {
-                    rays[rg]
-                        .iter()
-                        .map(|r| tracer.trace_maxmip(r, &mip).unwrap().hit.is_some() as u64)
-                        .sum::<u64>()
-                },
+                |rg| by_ray(&rays[rg]),
                 |rg| {
                     let (rs, os) = (&rays[rg.clone()], &mut o4[rg]);
                     // SAFETY: as above.
@@ -610,54 +617,27 @@ fn mip_table() {
                     os.iter().filter(|t| t.hit.is_some()).count() as u64
                 },
             );
-            println!(
-                "| max-mip, {name} view, chunks of 512 rays (fastest of 9 each): ray by ray (A) vs packet of {PACKET_LANES}, AVX-512 (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
-                n / a,
-                n / b
-            );
+            rows(&format!("packet of {PACKET_LANES}, AVX-512"), whole, chunks);
         }
         #[cfg(target_arch = "x86_64")]
         if std::is_x86_feature_detected!("avx512f") {
-            // SAFETY (both closures and the check): AVX-512F detected above.
+            // SAFETY (the closure and the check): AVX-512F detected above.
             let wide = |r: &Ray| unsafe { tracer.trace_maxmip_wide_avx512(r, &mip) }.unwrap();
             for (r, s) in rays.iter().zip(&scalar) {
                 let w = wide(r);
                 assert_eq!(w.hit, s.hit, "the wide walk's hit differs from ray by ray");
                 assert!(w.cells <= s.cells);
             }
-            let wd = || {
-                rays.iter()
-                    .map(|r| wide(r).hit.is_some() as u64)
-                    .sum::<u64>()
-            };
-            let (a, b, r) = interleaved(15, mm, wd);
-            println!(
-                "| max-mip, {name} view: ray by ray (A) vs sixteen-wide walk, AVX-512 (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
-                n / a,
-                n / b
-            );
-            let (a, b, r) = chunked(
+            let by_wide = |rs: &[Ray]| rs.iter().map(|r| wide(r).hit.is_some() as u64).sum::<u64>();
+            let whole = interleaved(15, mm, || by_wide(&rays));
+            let chunks = chunked(
                 rays.len(),
                 512,
                 9,
-                |rg| {
-                    rays[rg]
-                        .iter()
-                        .map(|r| tracer.trace_maxmip(r, &mip).unwrap().hit.is_some() as u64)
-                        .sum::<u64>()
-                },
-                |rg| {
-                    rays[rg]
-                        .iter()
-                        .map(|r| wide(r).hit.is_some() as u64)
-                        .sum::<u64>()
-                },
+                |rg| by_ray(&rays[rg]),
+                |rg| by_wide(&rays[rg]),
             );
-            println!(
-                "| max-mip, {name} view, chunks of 512 rays (fastest of 9 each): ray by ray (A) vs sixteen-wide walk, AVX-512 (B) | {:.0} rays/s | {:.0} rays/s | {r:.2} |",
-                n / a,
-                n / b
-            );
+            rows("sixteen-wide walk, AVX-512", whole, chunks);
         }
     }
 }

@@ -63,15 +63,7 @@ struct Entry {
 impl common::LocalTracer for Tracer {
     /// The hit parameter of local ray `o + t d` (`t` as for the world ray), or `None`.
     fn trace(&self, o: [f32; 3], d: [f32; 3]) -> Option<f64> {
-        // A finite inverse for a zero component, so that the node slabs stay finite.
-        let safe = |v: f32| {
-            if v.abs() > 1e-20 {
-                1.0 / v
-            } else {
-                1e20f32.copysign(v)
-            }
-        };
-        let inv = [safe(d[0]), safe(d[1])];
+        let inv = [common::finite_inverse(d[0]), common::finite_inverse(d[1])];
         let (t0, t1) = self.g.clip(o, d, inv)?;
         let down = d[2] < 0.0;
         let (fx, fy) = (usize::from(d[0] < 0.0), usize::from(d[1] < 0.0));
@@ -184,13 +176,6 @@ impl Tracer {
     #[inline(always)]
     fn trace_packet(&self, rays: &[&common::MipRay; L], out: &mut [Option<f64>; L]) {
         use common::LocalTracer;
-        let safe = |v: f32| {
-            if v.abs() > 1e-20 {
-                1.0 / v
-            } else {
-                1e20f32.copysign(v)
-            }
-        };
         let mut o = [[0.0f32; L]; 3];
         let mut d = [[0.0f32; L]; 3];
         let mut inv = [[0.0f32; L]; 2];
@@ -198,7 +183,10 @@ impl Tracer {
         let (mut neg_x, mut neg_y) = (0u32, 0u32);
         for (k, r) in rays.iter().enumerate() {
             out[k] = None;
-            let iv = [safe(r.d[0]), safe(r.d[1])];
+            let iv = [
+                common::finite_inverse(r.d[0]),
+                common::finite_inverse(r.d[1]),
+            ];
             for a in 0..3 {
                 o[a][k] = r.o[a];
                 d[a][k] = r.d[a];

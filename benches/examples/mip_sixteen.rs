@@ -156,14 +156,7 @@ impl Tracer {
         o: [f32; 3],
         d: [f32; 3],
     ) -> Option<f64> {
-        let safe = |v: f32| {
-            if v.abs() > 1e-20 {
-                1.0 / v
-            } else {
-                1e20f32.copysign(v)
-            }
-        };
-        let inv = [safe(d[0]), safe(d[1])];
+        let inv = [common::finite_inverse(d[0]), common::finite_inverse(d[1])];
         let r64 = Ray64::new(o, d);
         self.rays.set(self.rays.get() + 1);
         let (t0, t1) = self.g.clip(o, d, inv)?;

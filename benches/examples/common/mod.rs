@@ -654,6 +654,16 @@ pub fn morton_levels(g: &LocalGrid, n: u32, group: usize) -> Vec<Vec<f32>> {
     levels
 }
 
+/// `1 / v`, or `+-1e20` for a component too small to invert, so that the ray yardsticks' node
+/// slabs stay finite (`mip_quad`, `mip_sixteen`).
+pub fn finite_inverse(v: f32) -> f32 {
+    if v.abs() > 1e-20 {
+        1.0 / v
+    } else {
+        1e20f32.copysign(v)
+    }
+}
+
 /// A ray yardstick: the hit parameter of a grid-local ray ([`MipRay`]), or `None`.
 pub trait LocalTracer {
     /// Traces local origin `o` along `d`.
