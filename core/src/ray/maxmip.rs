@@ -411,15 +411,24 @@ impl<T: Terrain> RayTracer<'_, T> {
         Ok(())
     }
 
-    /// Clips `ray` and tests its start; the walk from the top node when it goes on.
+    /// Clips `ray` and tests its start: the clipped local ray when a walk goes on, `None`
+    /// when the ray misses the domain or hits at its start (recorded in `out`).
     #[inline(always)]
-    pub(super) fn mip_start(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) -> Option<Walk> {
+    pub(super) fn mip_clip(&self, ray: &Ray, out: &mut Trace) -> Option<LocalRay> {
         let lr = self.local(ray)?;
         if let Some(hit) = self.start_hit(ray, &lr) {
             out.cells = 1;
             out.hit = Some(hit);
             return None;
         }
+        Some(lr)
+    }
+
+    /// Clips `ray` and tests its start ([`Self::mip_clip`]); the walk from the start node
+    /// when it goes on.
+    #[inline(always)]
+    pub(super) fn mip_start(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) -> Option<Walk> {
+        let lr = self.mip_clip(ray, out)?;
         let lvl = start_level(mip);
         let l = mip.level(lvl);
         let inv = f64::from_bits((1023 - lvl as u64) << 52);

@@ -214,10 +214,9 @@ impl<T: Terrain> RayTracer<'_, T> {
             self.mip_walk(ray, mip, out);
             return;
         }
-        let Some(w) = self.mip_start(ray, mip, out) else {
+        let Some(lr) = self.mip_clip(ray, out) else {
             return;
         };
-        let lr = w.lr;
         let oct = usize::from(lr.d.x < 0.0) | usize::from(lr.d.y < 0.0) << 1;
         let ln = &LANES[oct & 3];
         let ord = &ln.xy;
