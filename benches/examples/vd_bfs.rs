@@ -24,6 +24,8 @@
 //!   tests (below the culled levels) in the two lanes of SSE2 registers (`sse2`, intrinsics) or
 //!   as straight-line pairs of scalar operations left to the compiler (`straight`, the form a
 //!   core without `unsafe` can write); both exactly `grid_triangles`' list (asserted);
+//! - *pair prefetch*: the pair walk in `f64` on the library's records, prefetching the records
+//!   of each pushed child's two children (the same triangles);
 //! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
 //!   records, and `Refiner::triangles` (compact vertices, renumbered) for reference.
 //!
@@ -31,7 +33,8 @@
 //! full layout gives the depth-first walk's triangles in its order (asserted).
 //!
 //! `cargo run --release -p relief-benches --example vd_bfs` (`RUNS=n`; `ONLY=text` runs only
-//! the variants whose name contains `text`)
+//! the variants whose name contains `text`; `MOVE=m` instead times two walks on one frame
+//! repeated against two frames in turn, the second with the eye moved `m` metres)
 
 use relief_core::refine::{
     hierarchy_len, pack_records, preprocess, records_len, triangle_bound, Criterion, RecordLayout,
@@ -79,6 +82,10 @@ const LIB_F64_X2: u8 = 5;
 /// [`LIB_F64_X2`] written as straight-line pairs of scalar operations, left to the compiler's
 /// vectorizer (the form the core, which has no `unsafe`, could use).
 const LIB_F64_X2S: u8 = 6;
+
+/// [`LIB_F64`] with the records of each child's two children's split vertices prefetched when
+/// the child is pushed (their addresses need only the corners, not the decisions).
+const LIB_F64_PF: u8 = 7;
 
 /// Stack entry kinds of [`Frame::dfs_pair`].
 const CULLED: u32 = 0;
@@ -343,10 +350,28 @@ impl Frame<'_> {
                 a: m,
                 planes: t.planes,
             };
+            if SRC == LIB_F64_PF && level + 2 < self.v.levels {
+                for c in [&a, &b] {
+                    for q in [(c.a + c.l) >> 1, (c.r + c.a) >> 1] {
+                        let p = self.lib.as_ptr().wrapping_add(self.index(q) as usize);
+                        // SAFETY: a prefetch does not access memory.
+                        unsafe {
+                            std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                                p as *const i8,
+                            )
+                        };
+                    }
+                }
+            }
             let (ka, kb) = if SRC == LIB_F64_X2 {
                 self.kinds_x2::<true>(&mut a, &mut b, level + 1)
             } else if SRC == LIB_F64_X2S {
                 self.kinds_x2::<false>(&mut a, &mut b, level + 1)
+            } else if SRC == LIB_F64_PF {
+                (
+                    self.kind::<LIB_F64>(&mut a, level + 1),
+                    self.kind::<LIB_F64>(&mut b, level + 1),
+                )
             } else {
                 (
                     self.kind::<SRC>(&mut a, level + 1),
@@ -539,6 +564,7 @@ fn main() {
     let mut out_pair64 = vec![[0u32; 3]; bound + 1];
     let mut out_pair_lib64 = vec![[0u32; 3]; bound + 1];
     let mut out_pair_x2 = vec![[0u32; 3]; bound + 1];
+    let mut out_pair_pf = vec![[0u32; 3]; bound + 1];
     let mut out_pair_x2s = vec![[0u32; 3]; bound + 1];
 
     let mut tris_g = [
@@ -566,6 +592,14 @@ fn main() {
         },
     ];
     look_bounds(&mut rec, w, 2 * side.trailing_zeros(), roots);
+    if let Some(step) = std::env::var("MOVE")
+        .ok()
+        .and_then(|s| s.parse::<f32>().ok())
+    {
+        let lib = lin_h.records().unwrap().0;
+        moving(&dem, &hf, &full, &lin_h, lib, &rec, roots, step, runs);
+        return;
+    }
     for tau in [0.5f32, 1.0, 4.0] {
         let f = Frame {
             rec: &rec,
@@ -624,6 +658,7 @@ fn main() {
             "pair f64 differs from grid_triangles"
         );
         for n in [
+            f.dfs_pair::<LIB_F64_PF>(roots, &mut out2),
             f.dfs_pair::<LIB_F64_X2>(roots, &mut out2),
             f.dfs_pair::<LIB_F64_X2S>(roots, &mut out2),
         ] {
@@ -679,6 +714,10 @@ fn main() {
             (
                 "pair, library records",
                 Box::new(|| f.dfs_pair::<LIB>(roots, &mut out_pair_lib)),
+            ),
+            (
+                "pair prefetch, library records, f64",
+                Box::new(|| f.dfs_pair::<LIB_F64_PF>(roots, &mut out_pair_pf)),
             ),
             (
                 "pair x2 sse2, library records, f64",
@@ -748,5 +787,76 @@ fn main() {
                 count[i] as f64 / warm[i] / 1e3
             );
         }
+    }
+}
+
+/// `MOVE=step`: the pair x2 sse2 yardstick and `grid_triangles` (linear records), each timed
+/// warm on one frame (`runs` runs in a row, as above) and on two frames taken in turn, the
+/// second with the eye moved `step` metres along the view (a camera in flight). A walk whose
+/// branches the predictor has learnt for one frame runs faster on that frame repeated than on
+/// frames that differ; the gap between the two readings is that learning.
+#[allow(clippy::too_many_arguments)]
+fn moving(
+    dem: &relief_io::Dem,
+    hf: &Heightfield<'_, f32>,
+    full: &relief_core::refine::Hierarchy<'_>,
+    lin_h: &relief_core::refine::Hierarchy<'_>,
+    lib: &[VertexRecord],
+    rec: &[[f32; 4]],
+    roots: [Tri; 2],
+    step: f32,
+    runs: usize,
+) {
+    let bound = triangle_bound(dem.width, dem.height);
+    let mut out = vec![[0u32; 3]; bound + 1];
+    let cams = [camera(BENCH_EYE_X), camera(BENCH_EYE_X - step)];
+    for tau in [0.5f32, 1.0, 4.0] {
+        let frames: Vec<Frame<'_>> = cams
+            .iter()
+            .map(|c| Frame {
+                rec,
+                lib,
+                v: common::LeanView::new(dem, c, tau, common::lean_inputs(hf, full, c).planes),
+            })
+            .collect();
+        let refiners: Vec<Refiner<'_, '_, _>> = cams
+            .iter()
+            .map(|c| Refiner::new(lin_h, hf, Criterion::View(View::new(c, tau).unwrap())).unwrap())
+            .collect();
+        for (f, r) in frames.iter().zip(&refiners) {
+            let n = f.dfs_pair::<LIB_F64_X2>(roots, &mut out);
+            let want = out[..n].to_vec();
+            let m = r.grid_triangles(&mut out).unwrap();
+            assert_eq!(
+                &out[..m],
+                &want[..],
+                "pair x2 sse2 differs from grid_triangles"
+            );
+        }
+        let mut line = format!("tau={tau} px, eye moved {step} m:");
+        for (name, lib_walk) in [("pair x2 sse2", false), ("grid_triangles, linear", true)] {
+            let run = |k: usize, out: &mut [[u32; 3]]| {
+                if lib_walk {
+                    refiners[k].grid_triangles(out).unwrap()
+                } else {
+                    frames[k].dfs_pair::<LIB_F64_X2>(roots, out)
+                }
+            };
+            // M triangles/s, fastest run: frame 0 alone, then frames 0 and 1 in turn.
+            let mut one = 0.0f64;
+            for _ in 0..runs {
+                let s = Instant::now();
+                let n = black_box(run(0, &mut out));
+                one = one.max(n as f64 / s.elapsed().as_secs_f64() / 1e6);
+            }
+            let mut turns = 0.0f64;
+            for i in 0..2 * runs {
+                let s = Instant::now();
+                let n = black_box(run(i & 1, &mut out));
+                turns = turns.max(n as f64 / s.elapsed().as_secs_f64() / 1e6);
+            }
+            line += &format!("  {name}: one frame {one:.1}, two in turn {turns:.1} M/s");
+        }
+        println!("{line}");
     }
 }

@@ -702,7 +702,8 @@ pub fn mip_yardstick<Y: LocalTracer>(label: &str, make: impl FnOnce(LocalGrid) -
             rays.iter()
                 .map(|r| (library(r).unwrap().hit.map(|h| h.t), y.trace(r.o, r.d))),
         );
-        let time = |rays: &[MipRay], reps: usize| {
+        // Fastest of `reps` passes over `rays` of the yardstick and of `other`, interleaved.
+        let time = |rays: &[MipRay], reps: usize, other: &dyn Fn(&MipRay) -> bool| {
             let (mut best_y, mut best_l) = (f64::INFINITY, f64::INFINITY);
             for _ in 0..reps {
                 let s = Instant::now();
@@ -712,17 +713,20 @@ pub fn mip_yardstick<Y: LocalTracer>(label: &str, make: impl FnOnce(LocalGrid) -
                 best_y = best_y.min(s.elapsed().as_secs_f64());
                 let s = Instant::now();
                 for r in rays {
-                    black_box(library(r));
+                    black_box(other(r));
                 }
                 best_l = best_l.min(s.elapsed().as_secs_f64());
             }
             (best_y, best_l)
         };
-        let (pass_y, pass_l) = time(&rays, runs);
-        let (chunk_y, chunk_l) = rays
-            .chunks(4096)
-            .map(|c| time(c, 9))
-            .fold((0.0, 0.0), |(a, b), (y, l)| (a + y, b + l));
+        let chunked = |other: &dyn Fn(&MipRay) -> bool| {
+            rays.chunks(4096)
+                .map(|c| time(c, 9, other))
+                .fold((0.0, 0.0), |(a, b), (y, l)| (a + y, b + l))
+        };
+        let neighbour = |r: &MipRay| black_box(library(r)).is_some();
+        let (pass_y, pass_l) = time(&rays, runs, &neighbour);
+        let (chunk_y, chunk_l) = chunked(&neighbour);
         let m = rays.len() as f64 / 1e6;
         println!(
             "{name:8} hits agree {agree} (both miss {both_miss}), differ {differ} | M rays/s, whole passes: {label} {:.2}, trace_maxmip {:.2} ({:.2}x) | chunked: {label} {:.2}, trace_maxmip {:.2} ({:.2}x)",
@@ -733,6 +737,22 @@ pub fn mip_yardstick<Y: LocalTracer>(label: &str, make: impl FnOnce(LocalGrid) -
             m / chunk_l,
             chunk_l / chunk_y
         );
+        // The library's sixteen-wide walk (AVX-512F), chunked the same way, interleaved with
+        // the yardstick chunk by chunk.
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            let wide = |r: &MipRay| {
+                // SAFETY: the CPU has AVX-512F.
+                black_box(unsafe { tracer.trace_maxmip_wide_avx512(&r.ray, &mip) }).is_ok()
+            };
+            let (chunk_y, chunk_w) = chunked(&wide);
+            println!(
+                "{name:8} chunked: {label} {:.2}, trace_maxmip_wide_avx512 {:.2} M rays/s ({:.2}x)",
+                m / chunk_y,
+                m / chunk_w,
+                chunk_w / chunk_y
+            );
+        }
     }
     y
 }
