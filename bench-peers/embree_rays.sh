@@ -5,7 +5,8 @@
 #
 # usage (from the repository root): bench-peers/embree_rays.sh RELIEF_BIN [ROUNDS] [WxH]
 # ONLY="puget fuji" limits the run to those DEMs (names in the list at the end); METHODS (default
-# "maxmip maxmip-scalar run-dda"; also maxmip-wide, AVX-512F) to those methods.
+# "maxmip maxmip-scalar run-dda"; also maxmip-wide, AVX-512F) to those methods; VIEWS (default
+# "camera grazing"; also low, a level view from just above the ground) to those views.
 # needs: python3 -m venv /tmp/venv-embree && /tmp/venv-embree/bin/pip install
 #        embreex==4.4.0.post1 numpy pillow    (or set PY to a python that has them)
 set -eu
@@ -23,7 +24,7 @@ while read -r name file fmt dx dy zmul; do
     w=${dims% *}
     h=${dims#* }
     "$PY" -c "import numpy as n,sys; a=n.fromfile(sys.argv[1],'<f4')*n.float32($zmul); a.astype('<f4').tofile(sys.argv[1])" "$TMP/$name.raw"
-    for view in camera grazing; do
+    for view in ${VIEWS:-camera grazing}; do
         for method in ${METHODS:-maxmip maxmip-scalar run-dda}; do
             "$PY" bench-peers/embree_trace.py "$RELIEF" "$TMP/$name.raw" "$w" "$h" "$dx" "$dy" \
                 "$view" "$SIZE" "$method" "$ROUNDS"

@@ -66,6 +66,17 @@ def view(name, z, dx, dy):
         eye = np.array([0.12 * ex, 0.09 * ey, hi + 0.05 * size])
         target = np.array([0.55 * ex, 0.6 * ey, lo])
         return eye, target, 60.0
+    if name == "low":
+        # Low flight: the eye 0.2% of the map's size above the highest sample within 1% of
+        # the map around a point a quarter of the way in, looking level across the map. Rays
+        # run long and close above the ground (the hardest case for a hierarchy of boxes).
+        cx, cy = int(0.25 * (gw - 1)), int(0.25 * (gh - 1))
+        rx, ry = max(1, gw // 100), max(1, gh // 100)
+        near = z[max(0, cy - ry) : cy + ry + 1, max(0, cx - rx) : cx + rx + 1]
+        ez = float(near.max()) + 0.002 * size
+        eye = np.array([cx * dx, cy * dy, ez])
+        target = np.array([0.95 * ex, 0.85 * ey, ez])
+        return eye, target, 60.0
     eye = np.array([0.01 * ex, 0.02 * ey, hi + 0.0002 * size])
     target = np.array([ex, 0.93 * ey, hi - 0.0001 * size])
     return eye, target, 30.0

@@ -8,7 +8,8 @@ usage (from the repository root, with the venv of embree_rays.sh, which has nump
     /tmp/venv-embree/bin/python bench-peers/maxmip_ab.py BIN_A BIN_B [BIN_A BIN_B ...]
 env: PACKET=1 times the AVX-512 packets (default: ray by ray, `--no-packet`); WIDE=1 ray by ray
 through sixteen-wide nodes (`--no-packet --wide`, AVX-512F); ONLY="puget fuji"
-limits the DEMs; SURFACE=bilinear (plane, nearest) traces another surface; SHOW=1 prints each
+limits the DEMs; VIEWS="camera grazing low" picks the views (default camera and grazing;
+`low` is embree_trace.py's level view from just above the ground); SURFACE=bilinear (plane, nearest) traces another surface; SHOW=1 prints each
 view's `relief trace` command (for profiling one view by hand); the DEMs' raw files are kept
 in the temporary folder it names. List a binary twice, alternated, to see the machine's drift.
 """
@@ -61,7 +62,7 @@ def main():
         z = np.fromfile(raw, "<f4") * np.float32(float(zmul))
         z.astype("<f4").tofile(raw)
         z = z.astype(np.float64).reshape(gh, gw)
-        for vn in ("camera", "grazing"):
+        for vn in os.environ.get("VIEWS", "camera grazing").split():
             eye, target, fov = view(vn, z, float(dx), float(dy))
             eye = eye.astype(np.float32).astype(np.float64)
             target = target.astype(np.float32).astype(np.float64)
