@@ -57,6 +57,29 @@ struct Tri {
     planes: u32,
 }
 
+impl Tri {
+    /// The two children of the split at the hypotenuse's midpoint (first, second), each with
+    /// `planes`.
+    #[inline(always)]
+    fn children(&self, planes: u32) -> (Tri, Tri) {
+        let m = (self.l + self.r) >> 1;
+        (
+            Tri {
+                l: self.a,
+                r: self.l,
+                a: m,
+                planes,
+            },
+            Tri {
+                l: self.r,
+                r: self.a,
+                a: m,
+                planes,
+            },
+        )
+    }
+}
+
 struct Frame<'a> {
     /// Per vertex, row-major: error, radius, local height (one cache line per decision), and
     /// in the fourth slot the lookahead's two per-triangle bounds ([`look_bounds`]).
@@ -148,18 +171,7 @@ impl Frame<'_> {
             return;
         };
         if split {
-            let a = Tri {
-                l: t.a,
-                r: t.l,
-                a: m,
-                planes,
-            };
-            let b = Tri {
-                l: t.r,
-                r: t.a,
-                a: m,
-                planes,
-            };
+            let (a, b) = t.children(planes);
             self.dfs(out, a, level + 1);
             self.dfs(out, b, level + 1);
         } else {
@@ -200,24 +212,9 @@ impl Frame<'_> {
                     no += 2;
                     continue;
                 }
-                stack[sp] = (
-                    Tri {
-                        l: t.r,
-                        r: t.a,
-                        a: m,
-                        planes,
-                    },
-                    level + 1,
-                );
-                stack[sp + 1] = (
-                    Tri {
-                        l: t.a,
-                        r: t.l,
-                        a: m,
-                        planes,
-                    },
-                    level + 1,
-                );
+                let (a, b) = t.children(planes);
+                stack[sp] = (b, level + 1);
+                stack[sp + 1] = (a, level + 1);
                 sp += 2;
             } else {
                 out[no] = tri;
@@ -337,19 +334,7 @@ impl Frame<'_> {
             if kind == CULLED {
                 continue;
             }
-            let m = (t.l + t.r) >> 1;
-            let mut a = Tri {
-                l: t.a,
-                r: t.l,
-                a: m,
-                planes: t.planes,
-            };
-            let mut b = Tri {
-                l: t.r,
-                r: t.a,
-                a: m,
-                planes: t.planes,
-            };
+            let (mut a, mut b) = t.children(t.planes);
             if SRC == LIB_F64_PF && level + 2 < self.v.levels {
                 for c in [&a, &b] {
                     for q in [(c.a + c.l) >> 1, (c.r + c.a) >> 1] {
@@ -381,6 +366,42 @@ impl Frame<'_> {
             stack[sp] = (b, level + 1, kb);
             stack[sp + 1] = (a, level + 1, ka);
             sp += 2;
+        }
+        no
+    }
+
+    /// [`Frame::dfs_pair`] with the first child kept in registers as the current entry instead
+    /// of pushed and popped at once (only the second child is pushed; same triangles, same
+    /// order).
+    fn dfs_cur<const SRC: u8>(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
+        let mut stack = [(Tri::default(), 0u32, 0u32); 64];
+        let (mut r0, mut r1) = (roots[0], roots[1]);
+        let k0 = self.kind::<SRC>(&mut r0, 0);
+        let k1 = self.kind::<SRC>(&mut r1, 0);
+        stack[0] = (r1, 0, k1);
+        let mut sp = 1usize;
+        let mut no = 0usize;
+        let mut cur = (r0, 0u32, k0);
+        loop {
+            let (t, level, kind) = cur;
+            if kind == SPLIT {
+                let (mut a, mut b) = t.children(t.planes);
+                let ka = self.kind::<SRC>(&mut a, level + 1);
+                let kb = self.kind::<SRC>(&mut b, level + 1);
+                stack[sp] = (b, level + 1, kb);
+                sp += 1;
+                cur = (a, level + 1, ka);
+                continue;
+            }
+            if kind == LEAF {
+                out[no] = [self.index(t.l), self.index(t.r), self.index(t.a)];
+                no += 1;
+            }
+            if sp == 0 {
+                break;
+            }
+            sp -= 1;
+            cur = stack[sp];
         }
         no
     }
@@ -440,18 +461,7 @@ impl Frame<'_> {
             let reach = e * self.v.f32s.k + rr;
             let split = !culled & (e > 0.0) & (reach * reach > dx * dx + dy * dy + dz * dz);
             let emit = !culled & !split;
-            next[nn] = Tri {
-                l: t.a,
-                r: t.l,
-                a: m,
-                planes,
-            };
-            next[nn + 1] = Tri {
-                l: t.r,
-                r: t.a,
-                a: m,
-                planes,
-            };
+            (next[nn], next[nn + 1]) = t.children(planes);
             nn += 2 * usize::from(split);
             out[no] = [self.index(t.l), self.index(t.r), self.index(t.a)];
             no += usize::from(emit);
@@ -515,18 +525,7 @@ fn look_bounds(rec: &mut [[f32; 4]], w: u32, levels: u32, roots: [Tri; 2]) {
         let slot = &mut rec[(y * w + x) as usize][3];
         let bits = slot.to_bits() | (bf16_up(ec) << (16 * side(m, t.a)));
         *slot = f32::from_bits(bits);
-        let a = Tri {
-            l: t.a,
-            r: t.l,
-            a: m,
-            planes: 0,
-        };
-        let b = Tri {
-            l: t.r,
-            r: t.a,
-            a: m,
-            planes: 0,
-        };
+        let (a, b) = t.children(0);
         stack.push((a, level + 1));
         stack.push((b, level + 1));
     }
@@ -565,6 +564,7 @@ fn main() {
     let mut out_pair_lib64 = vec![[0u32; 3]; bound + 1];
     let mut out_pair_x2 = vec![[0u32; 3]; bound + 1];
     let mut out_pair_pf = vec![[0u32; 3]; bound + 1];
+    let mut out_cur = vec![[0u32; 3]; bound + 1];
     let mut out_pair_x2s = vec![[0u32; 3]; bound + 1];
 
     let mut tris_g = [
@@ -658,6 +658,7 @@ fn main() {
             "pair f64 differs from grid_triangles"
         );
         for n in [
+            f.dfs_cur::<LIB_F64>(roots, &mut out2),
             f.dfs_pair::<LIB_F64_PF>(roots, &mut out2),
             f.dfs_pair::<LIB_F64_X2>(roots, &mut out2),
             f.dfs_pair::<LIB_F64_X2S>(roots, &mut out2),
@@ -714,6 +715,10 @@ fn main() {
             (
                 "pair, library records",
                 Box::new(|| f.dfs_pair::<LIB>(roots, &mut out_pair_lib)),
+            ),
+            (
+                "current, library records, f64",
+                Box::new(|| f.dfs_cur::<LIB_F64>(roots, &mut out_cur)),
             ),
             (
                 "pair prefetch, library records, f64",

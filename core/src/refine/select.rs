@@ -798,14 +798,18 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// per triangle. Corners are packed as `x | y << 32` (a hypotenuse's midpoint is half the
     /// sum of its ends: both coordinate sums are even and below `2^31`), the vertex data is
     /// read through `F` (one instance per layout), and an explicit stack replaces the
-    /// recursion (the second child below the first; a pop replaces a triangle of level `k` by
-    /// two of level `k + 1`, so with the two roots at most `levels() + 2` entries, and at most
-    /// one pop per triangle of the bisection tree). Each entry carries its decision, made when it
-    /// is pushed: a split decides both children at once, so their two record loads overlap and
-    /// a pop branches on a decision made long before. The order of the decisions changes, not
-    /// their results: between deciding the second child and popping it, the walk only visits
-    /// the first child's subtree, which never has the second child's split vertex as a corner
-    /// (so [`LeanSink::seen`] answers the same), and the decisions are nested.
+    /// recursion: the triangle being visited is held apart, a split pushes its second child and
+    /// visits the first at once, and a leaf or culled triangle pops the next (so the stack
+    /// grows by one entry a level: with the second root at most `levels() + 1` entries; each
+    /// pass visits one triangle of the bisection tree once). Each entry carries its decision,
+    /// made when it is created: a split decides both children at once, so their two record
+    /// loads overlap and the visit branches on a decision made a step before. The order of the
+    /// decisions changes, not their results: between deciding the second child and popping it,
+    /// the walk only visits the first child's subtree, which never has the second child's split
+    /// vertex as a corner (so [`LeanSink::seen`] answers the same), and the decisions are
+    /// nested. Holding the visited triangle apart, instead of pushing both children and popping
+    /// the first at once, took `grid_triangles` on linear records from 66 to 73 M triangles/s
+    /// on the 1 px frame of `vd_bfs` (BENCHMARKS.md).
     fn lean_walk<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
         let n = u64::from(self.g.side());
         let p = |x: u64, y: u64| x | (y << 32);
@@ -813,32 +817,41 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         // of a split at once, so their two record loads overlap); the second root below the
         // first.
         let mut stack = [(0u64, 0u64, 0u64, 0u8, Decision::Keep); LEAN_STACK];
-        let roots = [(p(0, 0), p(n, n), p(0, n)), (p(n, n), p(0, 0), p(n, 0))];
-        for (e, (l, r, a)) in stack.iter_mut().zip(roots) {
-            *e = (l, r, a, 0, self.lean_decide(v, f, sink, l, r, v.mask, 0));
-        }
-        let mut sp = 2usize;
-        while sp > 0 {
-            sp -= 1;
-            let Some(&(l, r, a, level, d)) = stack.get(sp) else {
-                break;
-            };
+        let root = |(l, r, a): (u64, u64, u64)| {
+            (l, r, a, 0u8, self.lean_decide(v, f, sink, l, r, v.mask, 0))
+        };
+        // The entry being visited is kept out of the stack: a split pushes its second child and
+        // visits the first at once (the order of the stack form, one push and pop fewer).
+        stack[0] = root((p(0, 0), p(n, n), p(0, n)));
+        let mut cur = root((p(n, n), p(0, 0), p(n, 0)));
+        let mut sp = 1usize;
+        loop {
+            let (l, r, a, level, d) = cur;
             match d {
                 Decision::Split(pl) => {
                     let m = (l + r) >> 1;
                     let next = u32::from(level) + 1;
                     let d0 = self.lean_decide(v, f, sink, a, l, pl, next);
                     let d1 = self.lean_decide(v, f, sink, r, a, pl, next);
-                    let Some(top) = stack.get_mut(sp..sp + 2) else {
+                    let Some(top) = stack.get_mut(sp) else {
                         break;
                     };
-                    top[0] = (r, a, m, next as u8, d1);
-                    top[1] = (a, l, m, next as u8, d0);
-                    sp += 2;
+                    *top = (r, a, m, next as u8, d1);
+                    sp += 1;
+                    cur = (a, l, m, next as u8, d0);
+                    continue;
                 }
                 Decision::Keep => sink.put(l, r, a),
                 Decision::Cull => {}
             }
+            if sp == 0 {
+                break;
+            }
+            sp -= 1;
+            let Some(&e) = stack.get(sp) else {
+                break;
+            };
+            cur = e;
         }
     }
 
