@@ -24,6 +24,9 @@
 //!   tests (below the culled levels) in the two lanes of SSE2 registers (`sse2`, intrinsics) or
 //!   as straight-line pairs of scalar operations left to the compiler (`straight`, the form a
 //!   core without `unsafe` can write); both exactly `grid_triangles`' list (asserted);
+//! - *current*: the pair walk with the visited triangle held apart (only the second child is
+//!   pushed: the library's walk since 2026-12-06), in `f64` on the library's records, alone and
+//!   with the *x2* sphere tests (`straight`, `sse2`);
 //! - *pair prefetch*: the pair walk in `f64` on the library's records, prefetching the records
 //!   of each pushed child's two children (the same triangles);
 //! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
@@ -386,8 +389,14 @@ impl Frame<'_> {
             let (t, level, kind) = cur;
             if kind == SPLIT {
                 let (mut a, mut b) = t.children(t.planes);
-                let ka = self.kind::<SRC>(&mut a, level + 1);
-                let kb = self.kind::<SRC>(&mut b, level + 1);
+                let (ka, kb) = match SRC {
+                    LIB_F64_X2 => self.kinds_x2::<true>(&mut a, &mut b, level + 1),
+                    LIB_F64_X2S => self.kinds_x2::<false>(&mut a, &mut b, level + 1),
+                    _ => (
+                        self.kind::<SRC>(&mut a, level + 1),
+                        self.kind::<SRC>(&mut b, level + 1),
+                    ),
+                };
                 stack[sp] = (b, level + 1, kb);
                 sp += 1;
                 cur = (a, level + 1, ka);
@@ -565,6 +574,8 @@ fn main() {
     let mut out_pair_x2 = vec![[0u32; 3]; bound + 1];
     let mut out_pair_pf = vec![[0u32; 3]; bound + 1];
     let mut out_cur = vec![[0u32; 3]; bound + 1];
+    let mut out_cur_x2s = vec![[0u32; 3]; bound + 1];
+    let mut out_cur_x2 = vec![[0u32; 3]; bound + 1];
     let mut out_pair_x2s = vec![[0u32; 3]; bound + 1];
 
     let mut tris_g = [
@@ -659,6 +670,8 @@ fn main() {
         );
         for n in [
             f.dfs_cur::<LIB_F64>(roots, &mut out2),
+            f.dfs_cur::<LIB_F64_X2S>(roots, &mut out2),
+            f.dfs_cur::<LIB_F64_X2>(roots, &mut out2),
             f.dfs_pair::<LIB_F64_PF>(roots, &mut out2),
             f.dfs_pair::<LIB_F64_X2>(roots, &mut out2),
             f.dfs_pair::<LIB_F64_X2S>(roots, &mut out2),
@@ -719,6 +732,14 @@ fn main() {
             (
                 "current, library records, f64",
                 Box::new(|| f.dfs_cur::<LIB_F64>(roots, &mut out_cur)),
+            ),
+            (
+                "current x2 straight, library records, f64",
+                Box::new(|| f.dfs_cur::<LIB_F64_X2S>(roots, &mut out_cur_x2s)),
+            ),
+            (
+                "current x2 sse2, library records, f64",
+                Box::new(|| f.dfs_cur::<LIB_F64_X2>(roots, &mut out_cur_x2)),
             ),
             (
                 "pair prefetch, library records, f64",
