@@ -813,15 +813,15 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     fn lean_walk<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
         let n = u64::from(self.g.side());
         let p = |x: u64, y: u64| x | (y << 32);
-        // Entries `(l, r, a, level, decision)`, each decided when it is pushed (both children
-        // of a split at once, so their two record loads overlap); the second root below the
-        // first.
+        // Entries `(l, r, a, level, decision)`, each decided when it is created (both children
+        // of a split at once, so their two record loads overlap).
         let mut stack = [(0u64, 0u64, 0u64, 0u8, Decision::Keep); LEAN_STACK];
         let root = |(l, r, a): (u64, u64, u64)| {
             (l, r, a, 0u8, self.lean_decide(v, f, sink, l, r, v.mask, 0))
         };
         // The entry being visited is kept out of the stack: a split pushes its second child and
-        // visits the first at once (the order of the stack form, one push and pop fewer).
+        // visits the first at once (the order of pushing both and popping the first, one push
+        // and pop fewer). The root of corner `(n, 0)` is visited first, the other waits below.
         stack[0] = root((p(0, 0), p(n, n), p(0, n)));
         let mut cur = root((p(n, n), p(0, 0), p(n, 0)));
         let mut sp = 1usize;
