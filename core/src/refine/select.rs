@@ -809,7 +809,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// vertex as a corner (so [`LeanSink::seen`] answers the same), and the decisions are
     /// nested. Holding the visited triangle apart, instead of pushing both children and popping
     /// the first at once, took `grid_triangles` on linear records from 66 to 73 M triangles/s
-    /// on the 1 px frame of `vd_bfs` (BENCHMARKS.md).
+    /// on the 1 px frame of `vd_bfs`; writing a split's leaf children at once, without visiting
+    /// them as entries, to 77 (BENCHMARKS.md).
     fn lean_walk<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
         let n = u64::from(self.g.side());
         let p = |x: u64, y: u64| x | (y << 32);
@@ -827,22 +828,47 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let mut sp = 1usize;
         loop {
             let (l, r, a, level, d) = cur;
-            match d {
+            // The next entry to visit, or `None` to pop one.
+            let next = match d {
                 Decision::Split(pl) => {
                     let m = (l + r) >> 1;
-                    let next = u32::from(level) + 1;
-                    let d0 = self.lean_decide(v, f, sink, a, l, pl, next);
-                    let d1 = self.lean_decide(v, f, sink, r, a, pl, next);
-                    let Some(top) = stack.get_mut(sp) else {
-                        break;
-                    };
-                    *top = (r, a, m, next as u8, d1);
-                    sp += 1;
-                    cur = (a, l, m, next as u8, d0);
-                    continue;
+                    let level = u32::from(level) + 1;
+                    let d0 = self.lean_decide(v, f, sink, a, l, pl, level);
+                    let d1 = self.lean_decide(v, f, sink, r, a, pl, level);
+                    let second = (r, a, m, level as u8, d1);
+                    if let Decision::Split(_) = d0 {
+                        let Some(top) = stack.get_mut(sp) else {
+                            break;
+                        };
+                        *top = second;
+                        sp += 1;
+                        Some((a, l, m, level as u8, d0))
+                    } else {
+                        // A first child that is a leaf (or culled) is written at once: it comes
+                        // before the second. The second is then visited without a push, or
+                        // written too when it is a leaf.
+                        if let Decision::Keep = d0 {
+                            sink.put(a, l, m);
+                        }
+                        match d1 {
+                            Decision::Split(_) => Some(second),
+                            Decision::Keep => {
+                                sink.put(r, a, m);
+                                None
+                            }
+                            Decision::Cull => None,
+                        }
+                    }
                 }
-                Decision::Keep => sink.put(l, r, a),
-                Decision::Cull => {}
+                Decision::Keep => {
+                    sink.put(l, r, a);
+                    None
+                }
+                Decision::Cull => None,
+            };
+            if let Some(e) = next {
+                cur = e;
+                continue;
             }
             if sp == 0 {
                 break;
