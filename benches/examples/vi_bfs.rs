@@ -1,18 +1,21 @@
 //! A yardstick for view-independent extraction (issue 3), not library code: the traversal of
 //! `Refiner::triangles_popcnt` on a square grid (the kept-vertex bitmap with its rank prefix,
-//! vertices packed with their ranks, the two finest levels without a branch) written three
+//! vertices packed with their ranks, the two finest levels without a branch) written four
 //! ways over the same bitmap:
-//! - *depth first*: the library's recursion up to commit b8a05d6, re-written here;
+//! - *depth first*: the library's recursion up to 2026-12-06 afternoon, each child's split
+//!   tested in its own call;
 //! - *blocks*: depth first down to subtrees `B` levels above the leaves, then each subtree
 //!   level by level, with no data-dependent branch: every triangle of a level is written to
 //!   the output and counted only when its split vertex is not kept, and its two children are
-//!   written to the next level and counted only when it is (the library's traversal since,
-//!   with `B = 10`);
+//!   written to the next level and counted only when it is (ported to the library with
+//!   `B = 10` and reverted, slower there: BENCHMARKS.md);
 //! - *by vertex*: no traversal at all: each kept vertex is the apex of up to four triangles of
-//!   its diamond, each in the mesh when its own split vertex is not kept (`Vi::by_vertex`).
+//!   its diamond, each in the mesh when its own split vertex is not kept (`Vi::by_vertex`);
+//! - *depth first, children tested before the call*: the library's recursion since
+//!   (`walk_known`), which writes a child that does not split without calling itself.
 //!
-//! All three give the library's triangles (asserted on each case; at `B = 10` the blocks also
-//! in the library's order). Timed: each alone over the same bitmap, fastest of `RUNS`, bitmap
+//! All four give the library's triangles (asserted on each case; the two depth-first forms in
+//! the library's order). Timed: each alone over the same bitmap, fastest of `RUNS`, bitmap
 //! and output warm; the library's whole `triangles_popcnt` (selection and vertices included)
 //! for scale; and writing the same number of triangles with nothing else, the floor of any
 //! extraction into that buffer. Bundled Puget Sound DEM, E = 1, 5, 20 and 50 m.
@@ -120,13 +123,11 @@ impl Vi<'_, '_> {
         self.o.put_if(tri(r, a, m), kept as usize);
     }
 
-    /// The library's recursion (`vi_square_walk!`).
-    #[target_feature(enable = "popcnt")]
-    fn dfs(&mut self, l: u64, r: u64, a: u64, depth: u32) {
-        let m = match self.split(l, r) {
-            Some(m) if depth > 0 => m,
-            _ => return self.o.put(tri(l, r, a)),
-        };
+    /// The two levels above the leaves of triangle `(l, r, a)` split at `m`, as the library
+    /// writes them (`depth` 1: both children; 2: [`Self::last`] for each); `false` for a deeper
+    /// triangle, which recurses.
+    #[inline(always)]
+    fn near_leaves(&mut self, l: u64, r: u64, a: u64, m: u64, depth: u32) -> bool {
         match depth {
             1 => {
                 self.o.put(tri(a, l, m));
@@ -136,9 +137,37 @@ impl Vi<'_, '_> {
                 self.last(a, l, m);
                 self.last(r, a, m);
             }
-            _ => {
-                self.dfs(a, l, m, depth - 1);
-                self.dfs(r, a, m, depth - 1);
+            _ => return false,
+        }
+        true
+    }
+
+    /// The library's recursion before 2026-12-06 afternoon (`vi_square_walk!`): each child's
+    /// split tested inside its own call.
+    #[target_feature(enable = "popcnt")]
+    fn dfs(&mut self, l: u64, r: u64, a: u64, depth: u32) {
+        let m = match self.split(l, r) {
+            Some(m) if depth > 0 => m,
+            _ => return self.o.put(tri(l, r, a)),
+        };
+        if !self.near_leaves(l, r, a, m, depth) {
+            self.dfs(a, l, m, depth - 1);
+            self.dfs(r, a, m, depth - 1);
+        }
+    }
+
+    /// The library's recursion since (`walk_known` of `vi_square_walk!`): a triangle known to
+    /// split at `m` tests each child's split before calling itself, so a child that does not
+    /// split is written without a call (same triangles, same order).
+    #[target_feature(enable = "popcnt")]
+    fn dfs_known(&mut self, l: u64, r: u64, a: u64, m: u64, depth: u32) {
+        if self.near_leaves(l, r, a, m, depth) {
+            return;
+        }
+        for (p, q, c) in [(a, l, m), (r, a, m)] {
+            match self.split(p, q) {
+                Some(s) => self.dfs_known(p, q, c, s, depth - 1),
+                None => self.o.put(tri(p, q, c)),
             }
         }
     }
@@ -328,8 +357,8 @@ fn main() {
         b: Box::new([[0; 3]; CAP]),
     };
     println!("Puget {w}x{h}, block {block}, fastest of {runs}, ms");
-    println!("| E (m) | triangles | library `triangles_popcnt` (whole) | depth first | blocks | depth first / blocks | by vertex | writes only |");
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("| E (m) | triangles | library `triangles_popcnt` (whole) | depth first | blocks | depth first / blocks | by vertex | writes only | depth first, children tested before the call |");
+    println!("|---|---|---|---|---|---|---|---|---|");
     // ONLY=e: that threshold alone.
     let only: Option<f32> = std::env::var("ONLY").ok().and_then(|v| v.parse().ok());
     for e in [1.0f32, 5.0, 20.0, 50.0] {
@@ -392,6 +421,17 @@ fn main() {
             }
             vi.o.n
         };
+        let run_known = |o: &mut [[u32; 3]]| {
+            let mut vi = make(bits, prefix, side, o);
+            for (l, r, a) in vi.roots() {
+                match vi.split(l, r) {
+                    // SAFETY: popcnt checked above.
+                    Some(m) if levels > 0 => unsafe { vi.dfs_known(l, r, a, m, levels) },
+                    _ => vi.o.put(tri(l, r, a)),
+                }
+            }
+            vi.o.n
+        };
         let mut run_blocks = |o: &mut [[u32; 3]]| {
             let mut vi = make(bits, prefix, side, o);
             for t in vi.roots() {
@@ -408,6 +448,8 @@ fn main() {
         };
         assert_eq!(run_dfs(&mut o1), nt);
         assert!(o1[..nt] == want[..], "depth first differs from the library");
+        assert_eq!(run_known(&mut o1), nt);
+        assert!(o1[..nt] == want[..], "known splits differ from the library");
         want.sort_unstable();
         assert_eq!(run_blocks(&mut o2), nt);
         let mut got = o2[..nt].to_vec();
@@ -417,12 +459,20 @@ fn main() {
         let mut got3 = o3[..nt].to_vec();
         got3.sort_unstable();
         assert!(got3 == want, "by vertex gives other triangles");
-        let (mut td, mut tb, mut tf, mut tv) =
-            (f64::INFINITY, f64::INFINITY, f64::INFINITY, f64::INFINITY);
+        let (mut td, mut tb, mut tf, mut tv, mut tk) = (
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::INFINITY,
+        );
         for _ in 0..runs {
             let s = Instant::now();
             black_box(run_dfs(&mut o1));
             td = td.min(s.elapsed().as_secs_f64() * 1e3);
+            let s = Instant::now();
+            black_box(run_known(&mut o1));
+            tk = tk.min(s.elapsed().as_secs_f64() * 1e3);
             let s = Instant::now();
             black_box(run_blocks(&mut o2));
             tb = tb.min(s.elapsed().as_secs_f64() * 1e3);
@@ -437,7 +487,7 @@ fn main() {
             tf = tf.min(s.elapsed().as_secs_f64() * 1e3);
         }
         println!(
-            "| {e} | {nt} | {lib:.3} | {td:.3} | {tb:.3} | {:.2} | {tv:.3} | {tf:.3} |",
+            "| {e} | {nt} | {lib:.3} | {td:.3} | {tb:.3} | {:.2} | {tv:.3} | {tf:.3} | {tk:.3} |",
             td / tb
         );
     }
