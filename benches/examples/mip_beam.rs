@@ -177,15 +177,20 @@ fn main() {
             Beam::new(&o, &d)
         };
         let beams: Vec<Beam> = tiles.iter().map(|t| beam_of(t)).collect();
+        // A tile's start less a margin (`None`: every ray misses), and the nodes tested.
+        let start = |b: &Beam| {
+            let (t0, n) = b.start(&mip, stop);
+            let t0 = (t0 < f64::INFINITY).then(|| (t0 - 1e-9 * t0.abs() - 1e-9).max(0.0));
+            (t0, n)
+        };
         // One tile: its start, then each ray from there.
         let trace_tile = |t: &[Ray], b: &Beam, out: &mut Vec<Option<f64>>, tested: &mut u64| {
-            let (t0, n) = b.start(&mip, stop);
+            let (t0, n) = start(b);
             *tested += u64::from(n);
-            if t0 == f64::INFINITY {
+            let Some(t0) = t0 else {
                 out.extend(t.iter().map(|_| None));
                 return;
-            }
-            let t0 = (t0 - 1e-9 * t0.abs() - 1e-9).max(0.0);
+            };
             for r in t {
                 let moved = Ray::new_f64(r.at(t0), r.dir()).unwrap();
                 let hit = tracer.trace_maxmip(&moved, &mip).unwrap().hit;
@@ -213,11 +218,9 @@ fn main() {
         let mut steps_beam = 0u64;
         let mut dda_beam = 0u64;
         for (t, b) in tiles.iter().zip(&beams) {
-            let (t0, _) = b.start(&mip, stop);
-            if t0 == f64::INFINITY {
+            let Some(t0) = start(b).0 else {
                 continue;
-            }
-            let t0 = (t0 - 1e-9 * t0.abs() - 1e-9).max(0.0);
+            };
             for r in t {
                 let moved = Ray::new_f64(r.at(t0), r.dir()).unwrap();
                 steps_beam += u64::from(tracer.trace_maxmip(&moved, &mip).unwrap().steps);
