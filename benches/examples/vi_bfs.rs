@@ -11,8 +11,9 @@
 //!   `B = 10` and reverted, slower there: BENCHMARKS.md);
 //! - *by vertex*: no traversal at all: each kept vertex is the apex of up to four triangles of
 //!   its diamond, each in the mesh when its own split vertex is not kept (`Vi::by_vertex`);
-//! - *depth first, children tested before the call*: the library's recursion since
-//!   (`walk_known`), which writes a child that does not split without calling itself.
+//! - *depth first, children tested before the call*: the library's recursion from then until
+//!   the evening of 2026-12-06 (`walk_known`), which writes a child that does not split without
+//!   calling itself (the library now also walks the five finest levels inline, without calls).
 //!
 //! All four give the library's triangles (asserted on each case; the two depth-first forms in
 //! the library's order). Timed: each alone over the same bitmap, fastest of `RUNS`, bitmap
@@ -21,7 +22,8 @@
 //! extraction into that buffer. Bundled Puget Sound DEM, E = 1, 5, 20 and 50 m.
 //!
 //! `cargo run --release -p relief-benches --example vi_bfs` (`RUNS=n`, `BLOCK=b` from 1 to 13,
-//! default 10; `ONLY=e` one threshold)
+//! default 10; `ONLY=e` one threshold; `RAW=path` a square grid of little-endian `f32` metres,
+//! such as the peer script's `prep.py` writes, instead of Puget Sound)
 
 use relief_core::refine::{
     hierarchy_len, preprocess, scratch_len, triangle_bound, Criterion, Refiner,
@@ -336,9 +338,30 @@ fn main() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(10);
+    // RAW=path: a square grid of little-endian f32 heights in metres (what the peer script's
+    // prep.py writes, e.g. Big Tujunga at 513^2) instead of the bundled Puget Sound DEM.
+    let raw = std::env::var("RAW").ok();
     let dem = common::puget();
-    let (w, h) = (dem.width, dem.height);
-    let hf = Heightfield::with_scale(&dem.samples, w, h, dem.scale).unwrap();
+    let (samples, w, h, scale, name) = match &raw {
+        Some(path) => {
+            let bytes = std::fs::read(path).expect("RAW file");
+            let s: Vec<f32> = bytes
+                .chunks_exact(4)
+                .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                .collect();
+            let side = (s.len() as f64).sqrt() as u32;
+            assert_eq!((side * side) as usize, s.len(), "RAW must be a square grid");
+            (s, side, side, Default::default(), path.as_str())
+        }
+        None => (
+            dem.samples.clone(),
+            dem.width,
+            dem.height,
+            dem.scale,
+            "Puget",
+        ),
+    };
+    let hf = Heightfield::with_scale(&samples, w, h, scale).unwrap();
     let n = hierarchy_len(w, h);
     let (mut ef, mut rf) = (vec![0.0f32; n], vec![0.0f32; n]);
     // The errors a second time, for the bitmap (the hierarchy borrows the first copy).
@@ -347,6 +370,7 @@ fn main() {
     let full = preprocess(&hf, &mut ef, &mut rf).unwrap();
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let mut verts = vec![[0.0f32; 3]; n];
+    let mut grid_verts = vec![[0u16; 2]; n];
     let mut tris = vec![[0u32; 3]; triangle_bound(w, h)];
     let side = (w - 1) as u64;
     let levels = 2 * side.trailing_zeros();
@@ -356,9 +380,9 @@ fn main() {
         a: Box::new([[0; 3]; CAP]),
         b: Box::new([[0; 3]; CAP]),
     };
-    println!("Puget {w}x{h}, block {block}, fastest of {runs}, ms");
-    println!("| E (m) | triangles | library `triangles_popcnt` (whole) | depth first | blocks | depth first / blocks | by vertex | writes only | depth first, children tested before the call |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("{name} {w}x{h}, block {block}, fastest of {runs}, ms");
+    println!("| E (m) | triangles | library `triangles_popcnt` (whole) | the same, grid-coordinate vertices | depth first | blocks | depth first / blocks | by vertex | writes only | depth first, children tested before the call |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     // ONLY=e: that threshold alone.
     let only: Option<f32> = std::env::var("ONLY").ok().and_then(|v| v.parse().ok());
     for e in [1.0f32, 5.0, 20.0, 50.0] {
@@ -374,6 +398,15 @@ fn main() {
             c = black_box(unsafe { r.triangles_popcnt(&mut scratch, &mut verts, &mut tris) })
                 .unwrap();
             lib = lib.min(s.elapsed().as_secs_f64() * 1e3);
+        }
+        // The same with grid-coordinate vertices, martini's and pymartini's output format.
+        let mut lib_grid = f64::INFINITY;
+        for _ in 0..runs {
+            let s = Instant::now();
+            // SAFETY: popcnt checked above.
+            let cg = unsafe { r.triangles_popcnt(&mut scratch, &mut grid_verts, &mut tris) };
+            assert_eq!(black_box(cg).unwrap(), c);
+            lib_grid = lib_grid.min(s.elapsed().as_secs_f64() * 1e3);
         }
         let nt = c.triangles;
         // The kept set: the corners and every vertex whose error exceeds E.
@@ -487,7 +520,7 @@ fn main() {
             tf = tf.min(s.elapsed().as_secs_f64() * 1e3);
         }
         println!(
-            "| {e} | {nt} | {lib:.3} | {td:.3} | {tb:.3} | {:.2} | {tv:.3} | {tf:.3} | {tk:.3} |",
+            "| {e} | {nt} | {lib:.3} | {lib_grid:.3} | {td:.3} | {tb:.3} | {:.2} | {tv:.3} | {tf:.3} | {tk:.3} |",
             td / tb
         );
     }
