@@ -1,0 +1,70 @@
+#!/usr/bin/env python3
+"""Issue 3's extraction targets (10x martini's getMesh, 6x pymartini's get_mesh) from one or
+more result files of martini_peers.sh (OUT=...jsonl), one column per file, in the order given.
+
+Cases: every DEM and E whose mesh has at least MIN triangles (default 100000). relief's time is
+`relief-full-grid`'s refine_fresh_repeat_ms (grid-coordinate vertices, fresh buffers on every
+call: the peers' own output format and protocol); the speed-ups are against the peers' times in
+the same file (the same run).
+
+usage: bench-peers/martini/targets.py RUN1.jsonl [RUN2.jsonl ...]   (env: MIN=100000)
+"""
+import json
+import os
+import sys
+
+MIN = int(os.environ.get("MIN", "100000"))
+
+
+def load(path):
+    rows = {}
+    for line in open(path):
+        if line.strip():
+            d = json.loads(line)
+            rows[(d["dem"], d["E"], d["tool"])] = d
+    return rows
+
+
+runs = [load(p) for p in sys.argv[1:]]
+if not runs:
+    sys.exit(__doc__)
+cases = sorted(
+    {(dem, e) for r in runs for (dem, e, tool) in r if tool == "relief-full-grid"},
+    key=lambda c: (c[0], c[1]),
+)
+head = "| DEM | E (m) | triangles | " + " | ".join(
+    f"run {i + 1}: martini / pymartini ms; relief ms, speed-ups" for i in range(len(runs))
+) + " |"
+print(head)
+print("|---|---|---|" + "---|" * len(runs))
+met = [0] * len(runs)
+counted = 0
+for dem, e in cases:
+    cells = []
+    tris = None
+    for i, r in enumerate(runs):
+        g = r.get((dem, e, "relief-full-grid"))
+        m = r.get((dem, e, "martini"))
+        p = r.get((dem, e, "pymartini"))
+        if not (g and m and p):
+            cells.append("-")
+            continue
+        tris = g["triangles"]
+        t = g["mesh_fresh_repeat_ms"]
+        sm, sp = m["mesh_ms"] / t, p["mesh_ms"] / t
+        both = sm >= 10 and sp >= 6
+        if tris >= MIN:
+            met[i] += both
+        cells.append(
+            f"{m['mesh_ms']:.2f} / {p['mesh_ms']:.2f}; {t:.2f}, {sm:.1f}x / {sp:.1f}x"
+            + (" (both met)" if both else "")
+        )
+    if tris is None or tris < MIN:
+        continue
+    counted += 1
+    print(f"| {dem} | {e} | {tris} | " + " | ".join(cells) + " |")
+print()
+print(
+    f"Both targets met, cases of at least {MIN} triangles: "
+    + ", ".join(f"run {i + 1} {k} of {counted}" for i, k in enumerate(met))
+)
