@@ -557,7 +557,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
     ) -> Result<FrameCounts, Error> {
-        if self.square_vi() {
+        if self.packed_vi() {
             let walk = |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk(l, r, a, depth);
             return self.vi_square(scratch, buffers, walk);
         }
@@ -585,8 +585,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         checked(sel.counts, written, nt)
     }
 
-    /// [`Self::triangles_vi`] with the square grid's walk compiled with `popcnt` (x86-64 only;
-    /// the CPU must have the instruction).
+    /// [`Self::triangles_vi`] with the packed walk ([`ViSquare`]) compiled with `popcnt`
+    /// (x86-64 only; the CPU must have the instruction).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "popcnt")]
     #[inline]
@@ -595,7 +595,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
     ) -> Result<FrameCounts, Error> {
-        if self.square_vi() {
+        if self.packed_vi() {
             // The closure inherits the function's target feature.
             let walk =
                 |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk_popcnt(l, r, a, depth);
@@ -605,12 +605,12 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     }
 
     /// [`Self::triangles`] compiled with the x86-64 `popcnt` instruction (x86-64 only): the same
-    /// results, buffer for buffer. The view-independent extraction of a square grid numbers
-    /// each kept vertex by its rank in a bitmap, one population count per vertex; the default
-    /// x86-64 target has no `popcnt` instruction, so [`Self::triangles`] counts bits in
-    /// software; the view-dependent list renumbers its triangles' corners by the same ranks
-    /// (three per triangle), and is compiled here with the instruction as well. Other grids of
-    /// the view-independent criterion take [`Self::triangles`] unchanged.
+    /// results, buffer for buffer. The view-independent extraction numbers each kept vertex by
+    /// its rank in a bitmap, one population count per vertex; the default x86-64 target has no
+    /// `popcnt` instruction, so [`Self::triangles`] counts bits in software; the view-dependent
+    /// list renumbers its triangles' corners by the same ranks (three per triangle), and is
+    /// compiled here with the instruction as well. View-independent grids of `2^32` samples or
+    /// more take [`Self::triangles`] unchanged.
     ///
     /// # Safety
     ///
@@ -911,14 +911,22 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         }
     }
 
-    /// Whether view-independent extraction takes [`ViSquare`]: a square grid (`(2^k+1)^2`) of
-    /// fewer than `2^32` samples.
+    /// Whether view-independent extraction takes [`ViSquare`] from its two roots (and may
+    /// select sparsely): a square grid (`(2^k+1)^2`) of fewer than `2^32` samples.
     fn square_vi(&self) -> bool {
-        self.g.is_square() && (self.g.len() as u64) <= IDX
+        self.g.is_square() && self.packed_vi()
     }
 
-    /// View-independent extraction of a square grid ([`ViSquare`]) with `walk` as its
-    /// traversal (the plain or the `popcnt` build).
+    /// Whether view-independent extraction takes [`ViSquare`]'s packed walk: a grid of any
+    /// shape with fewer than `2^32` samples (its row-major indices fit the packed vertices).
+    fn packed_vi(&self) -> bool {
+        (self.g.len() as u64) <= IDX
+    }
+
+    /// View-independent extraction through [`ViSquare`] with `walk` as its traversal (the
+    /// plain or the `popcnt` build): from the two roots on a square grid; on other grids,
+    /// down the triangles that straddle the domain's edge ([`Self::vi_domain`]) to those
+    /// inside it.
     #[inline(always)]
     fn vi_square<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
@@ -927,15 +935,57 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         walk: impl Fn(&mut ViSquare<'_, '_, O>, u64, u64, u64, u32),
     ) -> Result<FrameCounts, Error> {
         let (sel, written, mut vs, depth) = self.vi_square_start(scratch, buffers)?;
-        for (l, r, a) in vs.roots() {
-            walk(&mut vs, l, r, a, depth);
+        if self.g.is_square() {
+            for (l, r, a) in vs.roots() {
+                walk(&mut vs, l, r, a, depth);
+            }
+        } else {
+            let n = self.g.side() as i64;
+            for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
+                self.vi_domain(&mut vs, &walk, l, r, a, 0);
+            }
         }
         let n = vs.out.n;
         self.release(scratch, sel);
         checked(sel.counts, written, n)
     }
 
-    /// View-independent extraction of a square grid up to the traversal: selects, checks the
+    /// The view-independent walk of a grid that does not fill its hierarchy's square, in the
+    /// order of [`Self::walk_vi`]: a triangle outside the domain is dropped, one that straddles
+    /// its edge always splits (as there), and one inside goes to `walk` with its corners packed
+    /// by row-major index (a midpoint's index is the mean of its hypotenuse ends' indices in
+    /// any row width). Only the triangles along the domain's edge pass here: about 4 per level
+    /// and edge cell. Recursion depth at most `levels() <= 60`.
+    fn vi_domain<O: Slot<[u32; 3]>>(
+        &self,
+        vs: &mut ViSquare<'_, '_, O>,
+        walk: &impl Fn(&mut ViSquare<'_, '_, O>, u64, u64, u64, u32),
+        l: (i64, i64),
+        r: (i64, i64),
+        a: (i64, i64),
+        level: u32,
+    ) {
+        let levels = self.g.levels();
+        match self.g.classify([l, r, a]) {
+            Class::Outside => {}
+            Class::Inside => {
+                let w = i64::from(self.g.width());
+                let v = |vs: &ViSquare<'_, '_, O>, p: (i64, i64)| vs.vertex((p.1 * w + p.0) as u64);
+                let (pl, pr, pa) = (v(vs, l), v(vs, r), v(vs, a));
+                walk(vs, pl, pr, pa, levels.saturating_sub(level));
+            }
+            // A leaf cell has integer corners, so it is inside or outside, never straddling:
+            // the level test only bounds the recursion.
+            Class::Straddle if level < levels => {
+                let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
+                self.vi_domain(vs, walk, a, l, m, level + 1);
+                self.vi_domain(vs, walk, r, a, m, level + 1);
+            }
+            Class::Straddle => {}
+        }
+    }
+
+    /// View-independent extraction through [`ViSquare`] up to the traversal: selects, checks the
     /// buffers (nothing written when one is short), writes the vertices and returns the counts,
     /// the traversal state and the roots' depth. The kept set is the bitmap (1 bit per vertex,
     /// cache-resident), so the traversal never touches the error array.
@@ -1205,8 +1255,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             m.begin_sparse();
             self.mark_vi_square(&mut m, limit)
         } else {
-            // Other grids' view-independent traversal (`walk_vi`) tests vertices the marks
-            // never reached: it needs the whole bitmap.
+            // Other grids' view-independent traversals (`vi_domain`, `walk_vi`) split every
+            // triangle across the domain's edge and test vertices below it that the marks
+            // never reached: they need the whole bitmap.
             None
         };
         if let Some(triangles) = within {
@@ -2284,8 +2335,9 @@ macro_rules! vi_known_inline {
     };
 }
 
-/// View-independent traversal of a square grid (`(2^k+1)^2`, fewer than `2^32` samples) driven
-/// by the bitmap of kept vertices. A vertex travels as one `u64`: its row-major grid index in
+/// View-independent traversal of a grid of fewer than `2^32` samples (a square one from its two
+/// roots, others from the triangles inside the domain, [`Refiner::vi_domain`]) driven by the
+/// bitmap of kept vertices. A vertex travels as one `u64`: its row-major grid index in
 /// the low 32 bits and its rank (vertex number) in the high 32 bits; a midpoint's index is the
 /// mean of its hypotenuse ends' indices, and each rank is computed when the vertex is split off.
 struct ViSquare<'a, 'o, O: Slot<[u32; 3]> = [u32; 3]> {
@@ -2839,6 +2891,86 @@ mod cull_tests {
         assert!(
             total > 20_000,
             "{total} triangles: the comparison needs real frames"
+        );
+    }
+}
+
+#[cfg(test)]
+mod vi_domain_tests {
+    use super::*;
+    use crate::refine::{hierarchy_len, preprocess, scratch_len, triangle_bound};
+    use crate::Heightfield;
+    use std::vec;
+    use std::vec::Vec;
+
+    /// The packed walk of grids that do not fill their square (`vi_domain` down to the
+    /// triangles inside the domain, then `ViSquare`) against `walk_vi` into `ListSink`, the
+    /// walk it replaced there: the same triangles in the same order (`triangles_popcnt` against
+    /// `triangles`: `tests/tests/refine.rs`).
+    #[test]
+    fn packed_walk_matches_walk_vi_on_grids_of_any_size() {
+        let mut total = 0;
+        let mut meshes = 0;
+        for (w, h) in [
+            (2u32, 3u32),
+            (3, 2),
+            (5, 9),
+            (17, 6),
+            (33, 20),
+            (40, 65),
+            (100, 37),
+            (65, 66),
+            (129, 3),
+        ] {
+            let n = (w * h) as usize;
+            let s: Vec<f32> = (0..n)
+                .map(|i| {
+                    let (x, y) = ((i % w as usize) as f32, (i / w as usize) as f32);
+                    ((i * 37) % 23) as f32 * 0.4 + (x * 0.3).sin() * 9.0 + (y * 0.21).cos() * 7.0
+                })
+                .collect();
+            let hf = Heightfield::new(&s, w, h).unwrap();
+            let hl = hierarchy_len(w, h);
+            let (mut er, mut ra) = (vec![0.0; hl], vec![0.0; hl]);
+            let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+            for e in [0.0f32, 0.5, 2.0, 6.0, 1e9] {
+                let rf = Refiner::new(&full, &hf, Criterion::MaxError(e)).unwrap();
+                assert!(!rf.g.is_square() || (w == h));
+                let mut sc = vec![0u64; scratch_len(w, h)];
+                let mut v = vec![[0.0f32; 3]; n];
+                let mut t = vec![[0u32; 3]; triangle_bound(w, h)];
+                let c = rf.triangles(&mut sc, &mut v, &mut t).unwrap();
+                // The reference: `walk_vi` over the same selection.
+                let sel = rf.select(&mut sc).unwrap();
+                let mut buf = vec![[0u32; 3]; triangle_bound(w, h)];
+                {
+                    let (bits, prefix) = split_scratch(&mut sc, rf.g.len());
+                    let (bits, prefix) = (&*bits, &*prefix);
+                    let mut sink = ListSink {
+                        bits,
+                        prefix,
+                        w: i64::from(w),
+                        out: TriOut {
+                            out: &mut buf,
+                            n: 0,
+                        },
+                    };
+                    let k = rf.g.side() as i64;
+                    for (l, r, a) in [((k, k), (0, 0), (k, 0)), ((0, 0), (k, k), (0, k))] {
+                        rf.walk_vi::<_, false>(&mut sink, bits, l, r, a, 0);
+                    }
+                    assert_eq!(sink.out.n, c.triangles, "{w}x{h} E={e}");
+                }
+                rf.release(&mut sc, sel);
+                assert_eq!(&t[..c.triangles], &buf[..c.triangles], "{w}x{h} E={e}");
+                total += c.triangles;
+                meshes += 1;
+            }
+        }
+        assert_eq!(meshes, 45);
+        assert!(
+            total > 40_000,
+            "{total} triangles: the comparison needs real meshes"
         );
     }
 }
