@@ -911,12 +911,6 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         }
     }
 
-    /// Whether view-independent extraction takes [`ViSquare`] from its two roots (and may
-    /// select sparsely): a square grid (`(2^k+1)^2`) of fewer than `2^32` samples.
-    fn square_vi(&self) -> bool {
-        self.g.is_square() && self.packed_vi()
-    }
-
     /// Whether view-independent extraction takes [`ViSquare`]'s packed walk: a grid of any
     /// shape with fewer than `2^32` samples (its row-major indices fit the packed vertices).
     fn packed_vi(&self) -> bool {
@@ -1193,7 +1187,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// View-dependent frames mark sparsely: a traversal marks the words the mesh touches (and
     /// their summaries, see [`Marks::begin_sparse`]), and only those get a rank prefix and are
     /// cleared by [`Self::release`]. View-independent
-    /// selection of a square grid whose mesh looks small ([`Self::looks_small`]) takes a
+    /// selection of a grid of fewer than `2^32` samples whose mesh looks small
+    /// ([`Self::looks_small`]) takes a
     /// traversal of the kept part of the hierarchy (nested errors: it stops at the first
     /// vertex with error `<= E`), which costs O(mesh) instead of O(grid); past
     /// `1 / VI_SPARSE_SHARE` of the grid's samples in triangles it gives up and, like every
@@ -1206,7 +1201,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         }
         let limit = if self.view.is_some() {
             usize::MAX
-        } else if self.square_vi() && self.looks_small() {
+        } else if self.packed_vi() && self.looks_small() {
             self.g.len() / VI_SPARSE_SHARE
         } else {
             0
@@ -1251,13 +1246,13 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             let mut sink = MarkSink { m: &mut m, n: 0 };
             self.walk_all(&mut sink, false);
             Some(sink.n)
-        } else if self.square_vi() && limit > 0 {
+        } else if self.packed_vi() && limit > 0 {
             m.begin_sparse();
-            self.mark_vi_square(&mut m, limit)
+            self.mark_vi(&mut m, limit)
         } else {
-            // Other grids' view-independent traversals (`vi_domain`, `walk_vi`) split every
-            // triangle across the domain's edge and test vertices below it that the marks
-            // never reached: they need the whole bitmap.
+            // Grids of `2^32` samples or more: their traversal (`walk_vi`) splits every
+            // triangle across the domain's edge in the bitmap's terms and reads bits the
+            // marks never reached: it needs the whole bitmap.
             None
         };
         if let Some(triangles) = within {
@@ -1270,8 +1265,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 sparse: true,
             });
         }
-        // Dense (view-independent: the probes' choice, the budget ran out, or not a square
-        // grid): the summaries are stale, and the next sparse selection clears everything
+        // Dense (view-independent: the probes' choice, the budget ran out, or a grid of 2^32
+        // samples or more): the summaries are stale, and the next sparse selection clears everything
         // (`begin_sparse`).
         m.dense();
         let (bits, prefix) = (m.bits, m.prefix);
@@ -1324,26 +1319,25 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         })
     }
 
-    /// Sparse view-independent marking of a square grid: the corners and every split vertex
-    /// of the kept part of the hierarchy; the triangle count, or `None` past `limit` triangles.
-    fn mark_vi_square(&self, m: &mut Marks<'_>, limit: usize) -> Option<usize> {
+    /// Sparse view-independent marking (a grid of fewer than `2^32` samples): the domain's
+    /// corners and every split vertex of the kept part of the hierarchy; the triangle count,
+    /// or `None` past `limit` triangles.
+    fn mark_vi(&self, m: &mut Marks<'_>, limit: usize) -> Option<usize> {
         let (e, ce) = (self.max_error, bf16_floor_code(self.max_error));
-        let depth = self.g.levels();
+        let g = &self.g;
         match self.h.errors {
-            ErrorStore::F32(errs) => ViMark::run(m, limit, self.g.side(), depth, |i| {
-                errs.get(i).is_none_or(|&x| x > e)
-            }),
-            ErrorStore::Bf16(errs) => ViMark::run(m, limit, self.g.side(), depth, |i| {
-                errs.get(i).is_none_or(|&c| c > ce)
-            }),
+            ErrorStore::F32(errs) => {
+                ViMark::run(m, limit, g, |i| errs.get(i).is_none_or(|&x| x > e))
+            }
+            ErrorStore::Bf16(errs) => {
+                ViMark::run(m, limit, g, |i| errs.get(i).is_none_or(|&c| c > ce))
+            }
             // Linear records are indexed like the grid; interleaved ones through `err_at`.
             ErrorStore::Records(recs, super::RecordLayout::Linear) => {
-                ViMark::run(m, limit, self.g.side(), depth, |i| {
-                    recs.get(i).is_none_or(|r| r.error > ce)
-                })
+                ViMark::run(m, limit, g, |i| recs.get(i).is_none_or(|r| r.error > ce))
             }
             ErrorStore::Records(_, super::RecordLayout::Interleaved) => {
-                ViMark::run(m, limit, self.g.side(), depth, |i| self.h.err_at(i) > e)
+                ViMark::run(m, limit, g, |i| self.h.err_at(i) > e)
             }
         }
     }
@@ -1868,7 +1862,7 @@ const VI_PROJECT_FAR: f64 = 16.0;
 #[cfg(test)]
 std::thread_local! {
     /// Tests only: the view-independent budget of this thread's selections (`0`: dense,
-    /// `usize::MAX`: sparse on square grids), instead of the probes' choice.
+    /// `usize::MAX`: sparse below `2^32` samples), instead of the probes' choice.
     pub(crate) static VI_LIMIT: core::cell::Cell<Option<usize>> = const { core::cell::Cell::new(None) };
 }
 
@@ -2464,9 +2458,9 @@ impl PtSink for MarkSink<'_, '_> {
     }
 }
 
-/// Marks the kept part of a square grid's hierarchy (see [`Refiner::mark_vi_square`]):
-/// vertices travel as row-major grid indices (a midpoint's is the mean of its hypotenuse
-/// ends'), `kept(i)` is vertex `i`'s error test.
+/// Marks the kept part of a grid's hierarchy (see [`Refiner::mark_vi`]): vertices travel as
+/// row-major grid indices (a midpoint's is the mean of its hypotenuse ends'), `kept(i)` is
+/// vertex `i`'s error test.
 struct ViMark<'a, 's, K: Fn(usize) -> bool> {
     m: &'a mut Marks<'s>,
     kept: K,
@@ -2482,28 +2476,62 @@ struct ViMark<'a, 's, K: Fn(usize) -> bool> {
 }
 
 impl<'a, 's, K: Fn(usize) -> bool> ViMark<'a, 's, K> {
-    /// Marks the corners of a square of `side` cells and the kept part below its two root
-    /// triangles (split vertices `depth` levels above the leaves); the triangle count, or
-    /// `None` past `limit` triangles.
+    /// Marks the corners of grid `g` and the kept part below its hierarchy's two root
+    /// triangles (on a grid that does not fill its square, below the triangles inside the
+    /// domain, [`Self::domain`]); the triangle count, or `None` past `limit` triangles.
     #[inline(always)]
-    fn run(m: &'a mut Marks<'s>, limit: usize, side: u32, depth: u32, kept: K) -> Option<usize> {
-        let (n, w) = (side as usize, side as usize + 1);
-        let (c00, c10, c01, c11) = (0, n, n * w, n * w + n);
+    fn run(m: &'a mut Marks<'s>, limit: usize, g: &RefineGrid, kept: K) -> Option<usize> {
+        let (w, h) = (g.width() as usize, g.height() as usize);
+        let (w1, h1) = (w.saturating_sub(1), h.saturating_sub(1));
+        let (c00, c10, c01, c11) = (0, w1, h1 * w, h1 * w + w1);
         let mut s = ViMark {
             m,
             kept,
             n: 0,
             limit,
             area: 0,
-            total: 2u64 << depth.min(62),
+            // Leaf triangles in the domain (`2^(levels + 1)` on a square grid).
+            total: 2 * w1 as u64 * h1 as u64,
             over: false,
         };
         for c in [c00, c10, c01, c11] {
             s.m.mark(c);
         }
-        s.walk(c11, c00, c10, depth);
-        s.walk(c00, c11, c01, depth);
+        if g.is_square() {
+            s.walk(c11, c00, c10, g.levels());
+            s.walk(c00, c11, c01, g.levels());
+        } else {
+            let n = i64::from(g.side());
+            for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
+                s.domain(g, l, r, a, 0);
+            }
+        }
         (!s.over && s.n <= limit).then_some(s.n)
+    }
+
+    /// [`Refiner::vi_domain`]'s walk, marking: a triangle outside the domain is dropped, one
+    /// across its edge splits (its split vertex marked when it is in the domain and kept, as
+    /// the dense bitmap has it), one inside is walked by [`Self::walk`]. Recursion depth at
+    /// most `levels() <= 60`.
+    fn domain(&mut self, g: &RefineGrid, l: (i64, i64), r: (i64, i64), a: (i64, i64), level: u32) {
+        let levels = g.levels();
+        let w = i64::from(g.width());
+        let idx = |p: (i64, i64)| (p.1 * w + p.0) as usize;
+        match g.classify([l, r, a]) {
+            Class::Outside => {}
+            Class::Inside => self.walk(idx(l), idx(r), idx(a), levels.saturating_sub(level)),
+            // Never at a leaf (see `vi_domain`): the level test only bounds the recursion.
+            Class::Straddle if level < levels && !self.over => {
+                let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
+                let inside = m.0 < w && m.1 < i64::from(g.height());
+                if inside && (self.kept)(idx(m)) {
+                    self.m.mark(idx(m));
+                }
+                self.domain(g, a, l, m, level + 1);
+                self.domain(g, r, a, m, level + 1);
+            }
+            Class::Straddle => {}
+        }
     }
 
     /// Counts a triangle of `2^depth` leaf triangles' area. Past the budget (checked every
