@@ -2265,37 +2265,77 @@ impl<O: Slot<[u32; 3]>> TriOut<'_, O> {
     }
 }
 
-/// Defines the recursive traversal of [`ViSquare`] under a name (and attributes: the same body
-/// is compiled once for the default target and once with `popcnt`, whose recursion must call
-/// itself to keep the feature).
-macro_rules! vi_square_walk {
-    ($(#[$attr:meta])* $name:ident, $known:ident) => {
-        /// Triangle `(l, r, a)` whose split vertex is `depth` levels above the leaves.
-        /// Recursion depth at most `levels() <= 60`.
+/// `item` with the attributes of `{#[...] ...}` (so that a group of attributes can be passed
+/// on, and repeated, as one token tree).
+macro_rules! with_attrs {
+    ({$(#[$attr:meta])*} $($item:tt)*) => {
         $(#[$attr])*
-        fn $name(&mut self, l: u64, r: u64, a: u64, depth: u32) {
-            match self.split(l, r) {
-                Some(m) if depth > 0 => self.$known(l, r, a, m, depth),
-                _ => self.put(l, r, a),
+        $($item)*
+    };
+}
+
+/// Defines the recursive traversal of [`ViSquare`] under names (and attributes `$attrs`: the
+/// same body is compiled once for the default target and once with `popcnt`, whose functions
+/// must call each other to keep the feature): `$name` from a root, `$known` for a triangle
+/// known to split, `$l5` for one five levels above the leaves, and one function `$lv` per
+/// level `$d` above that, whose children go to `$below` (one level finer).
+macro_rules! vi_square_walk {
+    ($attrs:tt $name:ident, $known:ident, $l5:ident, [$($lv:ident = $d:literal < $below:ident),*]) => {
+        with_attrs! {
+            $attrs
+            /// A triangle known to split, five levels above the leaves: [`Self::known5`] as a
+            /// function of its own (the levels above call it).
+            #[inline(never)]
+            fn $l5(&mut self, l: u64, r: u64, a: u64, m: u64) {
+                self.known5(l, r, a, m)
             }
         }
 
-        /// The same for a triangle known to split at `m` (`depth > 0`). Each child's split is
-        /// tested before the call, so a child that stays whole is written without one (7-10%
-        /// faster on coarse meshes than a call that tests it, BENCHMARKS.md). The five finest
-        /// levels are one inline block without calls (`known5`): 5-13% faster than calls
-        /// down to the second-finest level, and one level more was no faster (BENCHMARKS.md).
-        $(#[$attr])*
-        fn $known(&mut self, l: u64, r: u64, a: u64, m: u64, depth: u32) {
-            match depth {
-                1 => {
-                    // The children are leaf cells: emit them without recursing.
-                    self.put(a, l, m);
-                    self.put(r, a, m);
+        $(
+            with_attrs! {
+                $attrs
+                #[doc = concat!("A triangle known to split, ", stringify!($d), " levels above the leaves.")]
+                #[inline(never)]
+                fn $lv(&mut self, l: u64, r: u64, a: u64, m: u64) {
+                    vi_children!(self, l, r, a, m, $below)
                 }
-                2 => self.known2(l, r, a, m),
-                5 => self.known5(l, r, a, m),
-                _ => vi_children!(self, l, r, a, m, $known, depth - 1),
+            }
+        )*
+
+        with_attrs! {
+            $attrs
+            /// Triangle `(l, r, a)` whose split vertex is `depth` levels above the leaves.
+            /// Recursion depth at most `levels() <= 60`.
+            fn $name(&mut self, l: u64, r: u64, a: u64, depth: u32) {
+                match self.split(l, r) {
+                    Some(m) if depth > 0 => self.$known(l, r, a, m, depth),
+                    _ => self.put(l, r, a),
+                }
+            }
+        }
+
+        with_attrs! {
+            $attrs
+            /// The same for a triangle known to split at `m` (`depth > 0`). Each child's split
+            /// is tested before the call, so a child that stays whole is written without one
+            /// (7-10% faster on coarse meshes than a call that tests it, BENCHMARKS.md). The
+            /// five finest levels are one inline block without calls (`known5`): 5-13% faster
+            /// than calls down to the second-finest level, and one level more was no faster.
+            /// Each level above has its own function (`$lv`), so the predictor keeps each
+            /// level's split branches apart: 2-7% faster than one recursion for all of them;
+            /// up to 16 levels was no faster than 12 (BENCHMARKS.md).
+            fn $known(&mut self, l: u64, r: u64, a: u64, m: u64, depth: u32) {
+                match depth {
+                    1 => {
+                        // The children are leaf cells: emit them without recursing.
+                        self.put(a, l, m);
+                        self.put(r, a, m);
+                    }
+                    2 => self.known2(l, r, a, m),
+                    5 => self.$l5(l, r, a, m),
+                    $($d => self.$lv(l, r, a, m),)*
+                    _ => vi_children!(self, l, r, a, m, $known, depth - 1),
+                }
             }
         }
     };
@@ -2417,12 +2457,27 @@ impl<O: Slot<[u32; 3]>> ViSquare<'_, '_, O> {
     vi_known_inline!(known4, known3, 4);
     vi_known_inline!(known5, known4, 5);
 
-    vi_square_walk!(walk, walk_known);
     vi_square_walk!(
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = "popcnt")]
+        {}
+        walk,
+        walk_known,
+        known_5,
+        [known_6 = 6 < known_5, known_7 = 7 < known_6, known_8 = 8 < known_7,
+         known_9 = 9 < known_8, known_10 = 10 < known_9, known_11 = 11 < known_10,
+         known_12 = 12 < known_11]
+    );
+    vi_square_walk!(
+        {
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "popcnt")]
+        }
         walk_popcnt,
-        walk_known_popcnt
+        walk_known_popcnt,
+        known_5_popcnt,
+        [known_6_popcnt = 6 < known_5_popcnt, known_7_popcnt = 7 < known_6_popcnt,
+         known_8_popcnt = 8 < known_7_popcnt, known_9_popcnt = 9 < known_8_popcnt,
+         known_10_popcnt = 10 < known_9_popcnt, known_11_popcnt = 11 < known_10_popcnt,
+         known_12_popcnt = 12 < known_11_popcnt]
     );
 
     /// [`Self::walk`] at `depth == 1`, without a branch on the split: the first slot gets
