@@ -1270,7 +1270,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         // (`begin_sparse`).
         m.dense();
         let (bits, prefix) = (m.bits, m.prefix);
-        let triangles = {
+        let (acc, triangles) = {
             // The kept set is known: every in-domain vertex with error > E (corners and forced
             // vertices are +inf). A triangulated rectangle has 2V - B - 2 triangles.
             let e = self.max_error;
@@ -1301,15 +1301,15 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                     fill_bits(bits, errs.get(..n).unwrap_or(errs), |&c| c > ce)
                 }
             }
-            let v = count_bits(bits);
             let border = self.border_count(bits);
-            (2 * v).saturating_sub(border + 2)
+            // The rank prefix counts the kept vertices on the way (one pass over the words).
+            let mut acc = 0u64;
+            for (p, &b) in prefix.iter_mut().zip(bits.iter()) {
+                *p = acc;
+                acc += b.count_ones() as u64;
+            }
+            (acc, (2 * acc as usize).saturating_sub(border + 2))
         };
-        let mut acc = 0u64;
-        for (p, &b) in prefix.iter_mut().zip(bits.iter()) {
-            *p = acc;
-            acc += b.count_ones() as u64;
-        }
         Ok(Selection {
             counts: FrameCounts {
                 vertices: acc as usize,
@@ -2091,10 +2091,6 @@ fn fill_bits<V>(bits: &mut [u64], values: &[V], keep: impl Fn(&V) -> bool) {
 /// when `c > bf16_floor_code(e)`.
 fn bf16_floor_code(e: f32) -> u16 {
     (e.max(0.0).to_bits() >> 16) as u16
-}
-
-fn count_bits(bits: &[u64]) -> usize {
-    bits.iter().map(|b| b.count_ones() as usize).sum()
 }
 
 /// How grid points map to bits of the marks bitmap, and so the order vertices are numbered in.
