@@ -752,13 +752,12 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     }
 
     /// Runs [`Self::lean_walk`] into `sink` where it applies (a view-dependent frame of a
-    /// grid whose packed points, `x | y << 32`, add without carrying, on the full layout,
-    /// linear records or the compact layout: layouts whose bit order is row-major, see
+    /// square grid whose packed points, `x | y << 32`, add without carrying, on the full
+    /// layout, linear records or the compact layout: layouts whose bit order is row-major, see
     /// [`Refiner::new`]; with `tau > 0` for the first two, which have spheres) and says
-    /// whether it did. A grid that does not fill its hierarchy's square is walked down the
-    /// triangles across the domain's edge first ([`Self::lean_domain`]).
+    /// whether it did.
     fn lean_frame<S: LeanSink>(&self, sink: &mut S) -> bool {
-        if self.g.side() >= 1 << 30 {
+        if !(self.g.is_square() && self.g.side() < 1 << 30) {
             return false;
         }
         let Some(v) = self.view.as_ref() else {
@@ -774,11 +773,11 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                     rad,
                     t: self.t,
                 };
-                self.lean_roots(v, &f, sink);
+                self.lean_walk(v, &f, sink);
                 true
             }
             (ErrorStore::Records(recs, super::RecordLayout::Linear), _) if spheres => {
-                self.lean_roots(v, &RecordFetch { recs }, sink);
+                self.lean_walk(v, &RecordFetch { recs }, sink);
                 true
             }
             (ErrorStore::Bf16(err), None) => {
@@ -787,65 +786,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                     radius: self.h.level_radii(),
                     t: self.t,
                 };
-                self.lean_roots(v, &f, sink);
+                self.lean_walk(v, &f, sink);
                 true
             }
             _ => false,
-        }
-    }
-
-    /// [`Self::lean_walk`] of the whole frame: from the two roots on a square grid, from the
-    /// triangles inside the domain on others ([`Self::lean_domain`]).
-    #[inline(always)]
-    fn lean_roots<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
-        let n = u64::from(self.g.side());
-        let p = |x: u64, y: u64| x | (y << 32);
-        if self.g.is_square() {
-            self.lean_walk(
-                v,
-                f,
-                sink,
-                (p(n, n), p(0, 0), p(n, 0)),
-                Some((p(0, 0), p(n, n), p(0, n))),
-                0,
-                v.mask,
-            );
-        } else {
-            let n = n as i64;
-            for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
-                self.lean_domain(v, f, sink, l, r, a, 0);
-            }
-        }
-    }
-
-    /// The view-dependent walk of a grid that does not fill its hierarchy's square, in the
-    /// order of [`Self::walk`]: a triangle outside the domain is dropped, one across its edge
-    /// always splits with the frame's planes (as there), and one inside goes to
-    /// [`Self::lean_walk`]. Recursion depth at most `levels() <= 60`.
-    #[allow(clippy::too_many_arguments)]
-    fn lean_domain<F: Fetch, S: LeanSink>(
-        &self,
-        v: &ViewData,
-        f: &F,
-        sink: &mut S,
-        l: (i64, i64),
-        r: (i64, i64),
-        a: (i64, i64),
-        level: u32,
-    ) {
-        match self.g.classify([l, r, a]) {
-            Class::Outside => {}
-            Class::Inside => {
-                let p = |q: (i64, i64)| q.0 as u64 | ((q.1 as u64) << 32);
-                self.lean_walk(v, f, sink, (p(l), p(r), p(a)), None, level, v.mask);
-            }
-            // Never at a leaf (see `vi_domain`): the level test only bounds the recursion.
-            Class::Straddle if level < self.g.levels() => {
-                let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
-                self.lean_domain(v, f, sink, a, l, m, level + 1);
-                self.lean_domain(v, f, sink, r, a, m, level + 1);
-            }
-            Class::Straddle => {}
         }
     }
 
@@ -867,34 +811,21 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// the first at once, took `grid_triangles` on linear records from 66 to 73 M triangles/s
     /// on the 1 px frame of `vd_bfs`; writing a split's leaf children at once, without visiting
     /// them as entries, to 77 (BENCHMARKS.md).
-    #[allow(clippy::too_many_arguments)]
-    fn lean_walk<F: Fetch, S: LeanSink>(
-        &self,
-        v: &ViewData,
-        f: &F,
-        sink: &mut S,
-        first: (u64, u64, u64),
-        second: Option<(u64, u64, u64)>,
-        level: u32,
-        planes: u8,
-    ) {
+    fn lean_walk<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
+        let n = u64::from(self.g.side());
+        let p = |x: u64, y: u64| x | (y << 32);
         // Entries `(l, r, a, level, decision)`, each decided when it is created (both children
         // of a split at once, so their two record loads overlap).
         let mut stack = [(0u64, 0u64, 0u64, 0u8, Decision::Keep); LEAN_STACK];
-        let start = |(l, r, a): (u64, u64, u64)| {
-            let d = self.lean_decide(v, f, sink, l, r, planes, level);
-            (l, r, a, level as u8, d)
+        let root = |(l, r, a): (u64, u64, u64)| {
+            (l, r, a, 0u8, self.lean_decide(v, f, sink, l, r, v.mask, 0))
         };
         // The entry being visited is kept out of the stack: a split pushes its second child and
         // visits the first at once (the order of pushing both and popping the first, one push
-        // and pop fewer). The first start triangle (a root: the one of corner `(n, 0)`) is
-        // visited first, the second waits below.
-        let mut sp = 0usize;
-        if let Some(t) = second {
-            stack[0] = start(t);
-            sp = 1;
-        }
-        let mut cur = start(first);
+        // and pop fewer). The root of corner `(n, 0)` is visited first, the other waits below.
+        stack[0] = root((p(0, 0), p(n, n), p(0, n)));
+        let mut cur = root((p(n, n), p(0, 0), p(n, 0)));
+        let mut sp = 1usize;
         loop {
             let (l, r, a, level, d) = cur;
             // The next entry to visit, or `None` to pop one.
@@ -2968,16 +2899,15 @@ mod cull_tests {
     fn lean_walk_matches_the_general_walk_triangle_for_triangle() {
         use crate::refine::{pack_records, records_len, RecordLayout, VertexRecord};
         let (mut frames, mut total) = (0, 0);
-        // Square grids from their roots; the others (the last three) down the domain's edge.
-        for (w, h) in [(17u32, 17u32), (33, 33), (65, 65), (17, 9), (40, 65), (100, 37)] {
-            let n = (w * h) as usize;
+        for w in [17u32, 33, 65] {
+            let n = (w * w) as usize;
             let s: std::vec::Vec<f32> = (0..n)
                 .map(|i| ((i * 37) % 23) as f32 * 0.9 + ((i / w as usize) as f32 * 0.3).sin() * 9.0)
                 .collect();
-            let hf = Heightfield::new(&s, w, h).unwrap();
+            let hf = Heightfield::new(&s, w, w).unwrap();
             let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
             let full = preprocess(&hf, &mut er, &mut ra).unwrap();
-            let mut rl = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Linear)];
+            let mut rl = vec![VertexRecord::default(); records_len(w, w, RecordLayout::Linear)];
             let lin = pack_records(&full, &hf, RecordLayout::Linear, &mut rl).unwrap();
             let mut ec = vec![0u16; n];
             let compact = preprocess_compact(&hf, &mut ec).unwrap();
@@ -3004,7 +2934,7 @@ mod cull_tests {
                     for hier in [&full, &lin, &compact] {
                         let rf = Refiner::new(hier, &hf, Criterion::View(view)).unwrap();
                         // The general walk into the row-major sink `grid_triangles` uses.
-                        let mut buf = vec![[0u32; 3]; crate::refine::triangle_bound(w, h)];
+                        let mut buf = vec![[0u32; 3]; crate::refine::triangle_bound(w, w)];
                         let mut rows = RowSink {
                             w: i64::from(w),
                             out: TriOut {
@@ -3019,7 +2949,7 @@ mod cull_tests {
                         let k = rf.grid_triangles(&mut lean).unwrap();
                         assert_eq!(&lean[..k], general, "{w} {eye}");
                         // `triangles` (marks and ranks) through the lean walk as well.
-                        let mut sc = vec![0u64; crate::refine::scratch_len(w, h)];
+                        let mut sc = vec![0u64; crate::refine::scratch_len(w, w)];
                         let mut v = vec![[0.0f32; 3]; n];
                         let mut t = vec![[0u32; 3]; k];
                         let c = rf.triangles(&mut sc, &mut v, &mut t).unwrap();
@@ -3036,7 +2966,7 @@ mod cull_tests {
                 }
             }
         }
-        assert_eq!(frames, 6 * 3 * 3 * 3);
+        assert_eq!(frames, 3 * 3 * 3 * 3);
         assert!(
             total > 20_000,
             "{total} triangles: the comparison needs real frames"
