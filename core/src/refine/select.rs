@@ -948,8 +948,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// order of [`Self::walk_vi`]: a triangle outside the domain is dropped, one that straddles
     /// its edge always splits (as there), and one inside goes to `walk` with its corners packed
     /// by row-major index (a midpoint's index is the mean of its hypotenuse ends' indices in
-    /// any row width). Only the triangles along the domain's edge pass here: about 4 per level
-    /// and edge cell. Recursion depth at most `levels() <= 60`.
+    /// any row width). Only the triangles across the domain's edge pass here, a number that
+    /// grows with the edge's length, not the grid's area. Recursion depth at most
+    /// `levels() <= 60`.
     fn vi_domain<O: Slot<[u32; 3]>>(
         &self,
         vs: &mut ViSquare<'_, '_, O>,
@@ -1186,10 +1187,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     ///
     /// View-dependent frames mark sparsely: a traversal marks the words the mesh touches (and
     /// their summaries, see [`Marks::begin_sparse`]), and only those get a rank prefix and are
-    /// cleared by [`Self::release`]. View-independent
-    /// selection of a grid of fewer than `2^32` samples whose mesh looks small
-    /// ([`Self::looks_small`]) takes a
-    /// traversal of the kept part of the hierarchy (nested errors: it stops at the first
+    /// cleared by [`Self::release`]. View-independent selection of a grid of fewer than `2^32`
+    /// samples whose mesh looks small ([`Self::looks_small`]) takes a traversal of the kept
+    /// part of the hierarchy (nested errors: it stops at the first
     /// vertex with error `<= E`), which costs O(mesh) instead of O(grid); past
     /// `1 / VI_SPARSE_SHARE` of the grid's samples in triangles it gives up and, like every
     /// other view-independent selection, writes the whole bitmap from the error array in one
@@ -1250,9 +1250,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             m.begin_sparse();
             self.mark_vi(&mut m, limit)
         } else {
-            // Grids of `2^32` samples or more: their traversal (`walk_vi`) splits every
-            // triangle across the domain's edge in the bitmap's terms and reads bits the
-            // marks never reached: it needs the whole bitmap.
+            // Grids of `2^32` samples or more take `walk_vi`, which tests vertices the marks
+            // never reached: it needs the whole bitmap.
             None
         };
         if let Some(triangles) = within {
@@ -1266,8 +1265,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             });
         }
         // Dense (view-independent: the probes' choice, the budget ran out, or a grid of 2^32
-        // samples or more): the summaries are stale, and the next sparse selection clears everything
-        // (`begin_sparse`).
+        // samples or more): the summaries are stale, and the next sparse selection clears
+        // everything (`begin_sparse`).
         m.dense();
         let (bits, prefix) = (m.bits, m.prefix);
         let (acc, triangles) = {
