@@ -378,6 +378,38 @@ pub(crate) trait Sink {
     fn tri(&mut self, a: (i64, i64), b: (i64, i64), c: (i64, i64));
 }
 
+/// Runs `$run` with `$f` bound to the [`Fetch`] of the hierarchy's layout where the lean walk
+/// applies (see [`Refiner::lean_frame`]) and gives `true`, or `false` where it does not.
+macro_rules! lean_layouts {
+    ($s:ident, $v:ident, $f:ident => $run:expr) => {{
+        // The sphere layouts' decision is told that there are spheres and that `tau > 0`
+        // (`Fetch::SPHERES`).
+        let spheres = $v.spheres && $v.tau > 0.0;
+        match ($s.h.errors, $s.h.radii()) {
+            (ErrorStore::F32(err), Some(rad)) if spheres => {
+                let $f = &FullFetch { err, rad, t: $s.t };
+                $run;
+                true
+            }
+            (ErrorStore::Records(recs, super::RecordLayout::Linear), _) if spheres => {
+                let $f = &RecordFetch { recs };
+                $run;
+                true
+            }
+            (ErrorStore::Bf16(err), None) => {
+                let $f = &CompactFetch {
+                    err,
+                    radius: $s.h.level_radii(),
+                    t: $s.t,
+                };
+                $run;
+                true
+            }
+            _ => false,
+        }
+    }};
+}
+
 impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// A refiner for `terrain`, which must be the terrain `hierarchy` was built from (same size;
     /// [`Error::LengthMismatch`] otherwise). Checks the criterion: `E` finite and `>= 0`; the
@@ -736,19 +768,39 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         if self.g.len() as u64 > IDX + 1 {
             return Err(Error::SizeOverflow);
         }
-        let mut sink = RowSink {
+        let sink = RowSink {
             w: self.g.width() as i64,
             out: TriOut {
                 out: triangles,
                 n: 0,
             },
         };
-        if !self.lean_frame(&mut sink) {
-            self.walk_all(&mut sink, false);
-        }
+        let sink = self.lean_or_walk(sink);
         let n = sink.out.n;
         need(n, sink.out.out.len())?;
         Ok(n)
+    }
+
+    /// The frame into `sink` through the lean walk where it applies ([`Self::lean_frame`] on a
+    /// square grid, [`Self::lean_frame_domain`] on others), through [`Self::walk_all`]
+    /// otherwise. Each branch takes the sink by value: the square grids' walk, inlined here,
+    /// keeps its sink in registers only while no other function holds a pointer to it (a
+    /// shared sink slowed it by 2-6%, BENCHMARKS.md).
+    #[inline(always)]
+    fn lean_or_walk<S: LeanSink + PtSink>(&self, sink: S) -> S {
+        if self.g.is_square() {
+            let mut sink = sink;
+            if !self.lean_frame(&mut sink) {
+                self.walk_all(&mut sink, false);
+            }
+            sink
+        } else {
+            let mut sink = sink;
+            if !self.lean_frame_domain(&mut sink) {
+                self.walk_all(&mut sink, false);
+            }
+            sink
+        }
     }
 
     /// Runs [`Self::lean_walk`] into `sink` where it applies (a view-dependent frame of a
@@ -763,33 +815,61 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let Some(v) = self.view.as_ref() else {
             return false;
         };
-        // The sphere layouts' decision is told that there are spheres and that `tau > 0`
-        // (`Fetch::SPHERES`).
-        let spheres = v.spheres && v.tau > 0.0;
-        match (self.h.errors, self.h.radii()) {
-            (ErrorStore::F32(err), Some(rad)) if spheres => {
-                let f = FullFetch {
-                    err,
-                    rad,
-                    t: self.t,
-                };
-                self.lean_walk(v, &f, sink);
-                true
+        lean_layouts!(self, v, f => self.lean_walk::<_, S, true>(v, f, sink, (0, 0, 0), 0))
+    }
+
+    /// [`Self::lean_frame`] for a grid that does not fill its hierarchy's square (the same
+    /// layouts): the triangles across the domain's edge first ([`Self::lean_domain`]), the
+    /// lean walk from each triangle inside.
+    #[inline(never)]
+    fn lean_frame_domain<S: LeanSink>(&self, sink: &mut S) -> bool {
+        if self.g.side() >= 1 << 30 {
+            return false;
+        }
+        let Some(v) = self.view.as_ref() else {
+            return false;
+        };
+        lean_layouts!(self, v, f => self.lean_domain(v, f, sink))
+    }
+
+    /// The view-dependent walk of a grid that does not fill its hierarchy's square, in the
+    /// order of [`Self::walk`]: a triangle outside the domain is dropped, one across its edge
+    /// always splits with the frame's planes (as there), and one inside goes to
+    /// [`Self::lean_walk`]. Only the triangles across the domain's edge pass here, a number that
+    /// grows with the edge's length, not the grid's area. An explicit stack of at most
+    /// `levels() + 2` entries (each split replaces its entry by its two children).
+    fn lean_domain<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
+        let n = i64::from(self.g.side());
+        let levels = self.g.levels();
+        let mut stack = [((0i64, 0i64), (0i64, 0i64), (0i64, 0i64), 0u32); LEAN_STACK];
+        // The first root is visited first: it goes on top.
+        stack[0] = ((0, 0), (n, n), (0, n), 0);
+        stack[1] = ((n, n), (0, 0), (n, 0), 0);
+        let mut sp = 2usize;
+        while sp > 0 {
+            sp -= 1;
+            let Some(&(l, r, a, level)) = stack.get(sp) else {
+                break;
+            };
+            match self.g.classify([l, r, a]) {
+                Class::Outside => {}
+                Class::Inside => {
+                    let p = |q: (i64, i64)| q.0 as u64 | ((q.1 as u64) << 32);
+                    self.lean_walk::<F, S, false>(v, f, sink, (p(l), p(r), p(a)), level);
+                }
+                // Never at a leaf (see `vi_domain`): the level test only bounds the walk.
+                Class::Straddle if level < levels => {
+                    let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
+                    // The second child below the first, which is visited next.
+                    let Some([second, first]) = stack.get_mut(sp..sp + 2) else {
+                        break;
+                    };
+                    *second = (r, a, m, level + 1);
+                    *first = (a, l, m, level + 1);
+                    sp += 2;
+                }
+                Class::Straddle => {}
             }
-            (ErrorStore::Records(recs, super::RecordLayout::Linear), _) if spheres => {
-                self.lean_walk(v, &RecordFetch { recs }, sink);
-                true
-            }
-            (ErrorStore::Bf16(err), None) => {
-                let f = CompactFetch {
-                    err,
-                    radius: self.h.level_radii(),
-                    t: self.t,
-                };
-                self.lean_walk(v, &f, sink);
-                true
-            }
-            _ => false,
         }
     }
 
@@ -811,21 +891,39 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// the first at once, took `grid_triangles` on linear records from 66 to 73 M triangles/s
     /// on the 1 px frame of `vd_bfs`; writing a split's leaf children at once, without visiting
     /// them as entries, to 77 (BENCHMARKS.md).
-    fn lean_walk<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
-        let n = u64::from(self.g.side());
-        let p = |x: u64, y: u64| x | (y << 32);
+    fn lean_walk<F: Fetch, S: LeanSink, const ROOTS: bool>(
+        &self,
+        v: &ViewData,
+        f: &F,
+        sink: &mut S,
+        start: (u64, u64, u64),
+        start_level: u32,
+    ) {
         // Entries `(l, r, a, level, decision)`, each decided when it is created (both children
         // of a split at once, so their two record loads overlap).
         let mut stack = [(0u64, 0u64, 0u64, 0u8, Decision::Keep); LEAN_STACK];
-        let root = |(l, r, a): (u64, u64, u64)| {
-            (l, r, a, 0u8, self.lean_decide(v, f, sink, l, r, v.mask, 0))
-        };
-        // The entry being visited is kept out of the stack: a split pushes its second child and
-        // visits the first at once (the order of pushing both and popping the first, one push
-        // and pop fewer). The root of corner `(n, 0)` is visited first, the other waits below.
-        stack[0] = root((p(0, 0), p(n, n), p(0, n)));
-        let mut cur = root((p(n, n), p(0, 0), p(n, 0)));
-        let mut sp = 1usize;
+        let (mut cur, mut sp);
+        if ROOTS {
+            let n = u64::from(self.g.side());
+            let p = |x: u64, y: u64| x | (y << 32);
+            let root = |(l, r, a): (u64, u64, u64)| {
+                (l, r, a, 0u8, self.lean_decide(v, f, sink, l, r, v.mask, 0))
+            };
+            // The entry being visited is kept out of the stack: a split pushes its second
+            // child and visits the first at once (the order of pushing both and popping the
+            // first, one push and pop fewer). The root of corner `(n, 0)` is visited first,
+            // the other waits below.
+            stack[0] = root((p(0, 0), p(n, n), p(0, n)));
+            cur = root((p(n, n), p(0, 0), p(n, 0)));
+            sp = 1usize;
+        } else {
+            // One triangle inside the domain ([`Self::lean_domain`]) at `start_level`, with
+            // the frame's planes.
+            let (l, r, a) = start;
+            let d = self.lean_decide(v, f, sink, l, r, v.mask, start_level);
+            cur = (l, r, a, start_level as u8, d);
+            sp = 0usize;
+        }
         loop {
             let (l, r, a, level, d) = cur;
             // The next entry to visit, or `None` to pop one.
@@ -1051,7 +1149,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         self.fits_vertex::<P>()?;
         let mut m = marks(scratch, self.g.len())?;
         m.begin_sparse();
-        let mut sink = GridSink {
+        let sink = GridSink {
             m: &mut m,
             out: TriOut {
                 out: &mut *triangles,
@@ -1059,10 +1157,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             },
             w: u64::from(self.g.width()),
         };
-        if !self.lean_frame(&mut sink) {
-            self.walk_all(&mut sink, false);
-        }
-        let nt = sink.out.n;
+        let nt = self.lean_or_walk(sink).out.n;
         let nv = m.prefix_sparse();
         let fits = nt <= triangles.len() && nv <= vertices.len();
         if fits {
@@ -2891,22 +2986,31 @@ mod cull_tests {
         );
     }
 
-    /// The lean walk (square grids: full layout, linear records, compact layout) against the
+    /// The lean walk (full layout, linear records, compact layout; square grids and three that
+    /// are not, through `lean_frame_domain`) against the
     /// general walk: the same triangles in the same order, through `grid_triangles` and through
     /// `triangles`.
     #[test]
     fn lean_walk_matches_the_general_walk_triangle_for_triangle() {
         use crate::refine::{pack_records, records_len, RecordLayout, VertexRecord};
         let (mut frames, mut total) = (0, 0);
-        for w in [17u32, 33, 65] {
-            let n = (w * w) as usize;
+        // Square grids from their roots; the others (the last three) down the domain's edge.
+        for (w, h) in [
+            (17u32, 17u32),
+            (33, 33),
+            (65, 65),
+            (17, 9),
+            (40, 65),
+            (100, 37),
+        ] {
+            let n = (w * h) as usize;
             let s: std::vec::Vec<f32> = (0..n)
                 .map(|i| ((i * 37) % 23) as f32 * 0.9 + ((i / w as usize) as f32 * 0.3).sin() * 9.0)
                 .collect();
-            let hf = Heightfield::new(&s, w, w).unwrap();
+            let hf = Heightfield::new(&s, w, h).unwrap();
             let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
             let full = preprocess(&hf, &mut er, &mut ra).unwrap();
-            let mut rl = vec![VertexRecord::default(); records_len(w, w, RecordLayout::Linear)];
+            let mut rl = vec![VertexRecord::default(); records_len(w, h, RecordLayout::Linear)];
             let lin = pack_records(&full, &hf, RecordLayout::Linear, &mut rl).unwrap();
             let mut ec = vec![0u16; n];
             let compact = preprocess_compact(&hf, &mut ec).unwrap();
@@ -2933,7 +3037,7 @@ mod cull_tests {
                     for hier in [&full, &lin, &compact] {
                         let rf = Refiner::new(hier, &hf, Criterion::View(view)).unwrap();
                         // The general walk into the row-major sink `grid_triangles` uses.
-                        let mut buf = vec![[0u32; 3]; crate::refine::triangle_bound(w, w)];
+                        let mut buf = vec![[0u32; 3]; crate::refine::triangle_bound(w, h)];
                         let mut rows = RowSink {
                             w: i64::from(w),
                             out: TriOut {
@@ -2948,7 +3052,7 @@ mod cull_tests {
                         let k = rf.grid_triangles(&mut lean).unwrap();
                         assert_eq!(&lean[..k], general, "{w} {eye}");
                         // `triangles` (marks and ranks) through the lean walk as well.
-                        let mut sc = vec![0u64; crate::refine::scratch_len(w, w)];
+                        let mut sc = vec![0u64; crate::refine::scratch_len(w, h)];
                         let mut v = vec![[0.0f32; 3]; n];
                         let mut t = vec![[0u32; 3]; k];
                         let c = rf.triangles(&mut sc, &mut v, &mut t).unwrap();
@@ -2965,7 +3069,7 @@ mod cull_tests {
                 }
             }
         }
-        assert_eq!(frames, 3 * 3 * 3 * 3);
+        assert_eq!(frames, 6 * 3 * 3 * 3);
         assert!(
             total > 20_000,
             "{total} triangles: the comparison needs real frames"
