@@ -627,7 +627,7 @@ fn check_vd_on(t: &Vd, eye: Vec3, target: Vec3, tau: f32) -> usize {
 }
 
 /// View-dependent frames of a square grid on every layout: `refine` checks that
-/// `grid_triangles` (which walks square grids its own way) gives the indexed list's triangles
+/// `grid_triangles` (which writes grid indices, not vertex numbers) gives the indexed list's triangles
 /// corner for corner; each mesh is crack-free where culling keeps it whole and meets the pixel
 /// threshold.
 #[test]
