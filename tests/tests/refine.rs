@@ -627,9 +627,9 @@ fn check_vd_on(t: &Vd, eye: Vec3, target: Vec3, tau: f32) -> usize {
 }
 
 /// View-dependent frames of a square grid on every layout: `refine` checks that
-/// `grid_triangles` (which writes grid indices, not vertex numbers) gives the indexed list's triangles
-/// corner for corner; each mesh is crack-free where culling keeps it whole and meets the pixel
-/// threshold.
+/// `grid_triangles` (which writes grid indices, not vertex numbers) gives the indexed list's
+/// triangles corner for corner; each mesh is crack-free where culling keeps it whole and meets
+/// the pixel threshold.
 #[test]
 fn square_view_dependent_grid_triangles_match_the_list_on_every_layout() {
     let (w, h) = (129u32, 129u32);
