@@ -873,9 +873,11 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         }
     }
 
-    /// [`Self::walk`] for a view-dependent frame of a square grid into a [`LeanSink`]: the same
-    /// decisions ([`Self::decide_view`]), the same triangles in the same order, with less state
-    /// per triangle. Corners are packed as `x | y << 32` (a hypotenuse's midpoint is half the
+    /// [`Self::walk`] for a view-dependent frame into a [`LeanSink`], from the two roots of a
+    /// square grid (`ROOTS`) or from triangle `start` at `start_level` inside the domain of
+    /// another ([`Self::lean_domain`]; `start` and `start_level` are unused with `ROOTS`): the
+    /// same decisions ([`Self::decide_view`]), the same triangles in the same order, with less
+    /// state per triangle. Corners are packed as `x | y << 32` (a hypotenuse's midpoint is half the
     /// sum of its ends: both coordinate sums are even and below `2^31`), the vertex data is
     /// read through `F` (one instance per layout), and an explicit stack replaces the
     /// recursion: the triangle being visited is held apart, a split pushes its second child and
