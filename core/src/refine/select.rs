@@ -2369,17 +2369,17 @@ macro_rules! with_attrs {
 /// Defines the recursive traversal of [`ViSquare`] under names (and attributes `$attrs`: the
 /// same body is compiled once for the default target and once with `popcnt`, whose functions
 /// must call each other to keep the feature): `$name` from a root, `$known` for a triangle
-/// known to split, `$l5` for one five levels above the leaves, and one function `$lv` per
+/// known to split, `$block` for one six levels above the leaves, and one function `$lv` per
 /// level `$d` above that, whose children go to `$below` (one level finer).
 macro_rules! vi_square_walk {
-    ($attrs:tt $name:ident, $known:ident, $l5:ident, [$($lv:ident = $d:literal < $below:ident),*]) => {
+    ($attrs:tt $name:ident, $known:ident, $block:ident, [$($lv:ident = $d:literal < $below:ident),*]) => {
         with_attrs! {
             $attrs
-            /// A triangle known to split, five levels above the leaves: [`Self::known5`] as a
+            /// A triangle known to split, six levels above the leaves: [`Self::known6`] as a
             /// function of its own (the levels above call it).
             #[inline(never)]
-            fn $l5(&mut self, l: u64, r: u64, a: u64, m: u64) {
-                self.known5(l, r, a, m)
+            fn $block(&mut self, l: u64, r: u64, a: u64, m: u64) {
+                self.known6(l, r, a, m)
             }
         }
 
@@ -2411,11 +2411,12 @@ macro_rules! vi_square_walk {
             /// The same for a triangle known to split at `m` (`depth > 0`). Each child's split
             /// is tested before the call, so a child that stays whole is written without one
             /// (7-10% faster on coarse meshes than a call that tests it, BENCHMARKS.md). The
-            /// five finest levels are one inline block without calls (`known5`): 5-13% faster
-            /// than calls down to the second-finest level, and one level more was no faster.
-            /// Each level above has its own function (`$lv`), so the predictor keeps each
-            /// level's split branches apart: 2-7% faster than one recursion for all of them;
-            /// up to 16 levels was no faster than 12 (BENCHMARKS.md).
+            /// finest levels are one inline block without calls (`known6`): five levels were
+            /// 5-13% faster than calls down to the second-finest level. Each level above has its
+            /// own function (`$lv`), so the predictor keeps each level's split branches apart:
+            /// 2-7% faster than one recursion for all of them; with those, a block of six levels
+            /// is 1-3% faster than five, seven 7-15% slower, and functions up to 16 levels were
+            /// no faster than up to 12 (BENCHMARKS.md).
             fn $known(&mut self, l: u64, r: u64, a: u64, m: u64, depth: u32) {
                 match depth {
                     1 => {
@@ -2424,7 +2425,7 @@ macro_rules! vi_square_walk {
                         self.put(r, a, m);
                     }
                     2 => self.known2(l, r, a, m),
-                    5 => self.$l5(l, r, a, m),
+                    6 => self.$block(l, r, a, m),
                     $($d => self.$lv(l, r, a, m),)*
                     _ => vi_children!(self, l, r, a, m, $known, depth - 1),
                 }
@@ -2548,15 +2549,16 @@ impl<O: Slot<[u32; 3]>> ViSquare<'_, '_, O> {
     vi_known_inline!(known3, known2, 3);
     vi_known_inline!(known4, known3, 4);
     vi_known_inline!(known5, known4, 5);
+    vi_known_inline!(known6, known5, 6);
 
     vi_square_walk!(
         {}
         walk,
         walk_known,
-        known_5,
-        [known_6 = 6 < known_5, known_7 = 7 < known_6, known_8 = 8 < known_7,
-         known_9 = 9 < known_8, known_10 = 10 < known_9, known_11 = 11 < known_10,
-         known_12 = 12 < known_11]
+        known_6,
+        [known_7 = 7 < known_6, known_8 = 8 < known_7, known_9 = 9 < known_8,
+         known_10 = 10 < known_9, known_11 = 11 < known_10, known_12 = 12 < known_11,
+         known_13 = 13 < known_12]
     );
     vi_square_walk!(
         {
@@ -2565,11 +2567,11 @@ impl<O: Slot<[u32; 3]>> ViSquare<'_, '_, O> {
         }
         walk_popcnt,
         walk_known_popcnt,
-        known_5_popcnt,
-        [known_6_popcnt = 6 < known_5_popcnt, known_7_popcnt = 7 < known_6_popcnt,
-         known_8_popcnt = 8 < known_7_popcnt, known_9_popcnt = 9 < known_8_popcnt,
-         known_10_popcnt = 10 < known_9_popcnt, known_11_popcnt = 11 < known_10_popcnt,
-         known_12_popcnt = 12 < known_11_popcnt]
+        known_6_popcnt,
+        [known_7_popcnt = 7 < known_6_popcnt, known_8_popcnt = 8 < known_7_popcnt,
+         known_9_popcnt = 9 < known_8_popcnt, known_10_popcnt = 10 < known_9_popcnt,
+         known_11_popcnt = 11 < known_10_popcnt, known_12_popcnt = 12 < known_11_popcnt,
+         known_13_popcnt = 13 < known_12_popcnt]
     );
 
     /// [`Self::walk`] at `depth == 1`, without a branch on the split: the first slot gets
