@@ -39,6 +39,15 @@ pub(crate) enum Class {
     Straddle,
 }
 
+/// What [`RefineGrid::walk_edge`] meets.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Edge {
+    /// A triangle `(l, r, a)` inside the domain, its split vertex at `level`.
+    Inside((i64, i64), (i64, i64), (i64, i64), u32),
+    /// The split vertex of a triangle across the domain's edge (maybe outside the domain).
+    Split((i64, i64)),
+}
+
 impl RefineGrid {
     /// The hierarchy for a `width x height` grid (both at least 2, at most `2^30 + 1`).
     ///
@@ -181,6 +190,55 @@ impl RefineGrid {
     #[inline(always)]
     pub(crate) fn in_domain(&self, x: i64, y: i64) -> bool {
         x >= 0 && y >= 0 && x < self.width as i64 && y < self.height as i64
+    }
+
+    /// Walks the hierarchy's triangles across the domain's edge of a grid that does not fill
+    /// its square, in the refinement walks' depth-first order (root `(n, n), (0, 0), (n, 0)`
+    /// first, first child `(a, l, m)` first): a triangle outside the domain is dropped, one
+    /// across its edge always splits (`visit` gets [`Edge::Split`] with its split vertex), and
+    /// one inside goes to `visit` as [`Edge::Inside`] with its level. `visit` returning `false`
+    /// ends the walk. Only the triangles across the edge pass here, a number that grows with
+    /// the edge's length, not the grid's area; an explicit stack of at most `levels() + 2`
+    /// entries (each split replaces its entry by its two children).
+    #[inline(always)]
+    pub(crate) fn walk_edge(&self, mut visit: impl FnMut(Edge) -> bool) {
+        let n = i64::from(self.side);
+        let levels = self.levels();
+        let mut stack = [((0i64, 0i64), (0i64, 0i64), (0i64, 0i64), 0u32); 64];
+        // The first root is visited first: it goes on top.
+        stack[0] = ((0, 0), (n, n), (0, n), 0);
+        stack[1] = ((n, n), (0, 0), (n, 0), 0);
+        let mut sp = 2usize;
+        while sp > 0 {
+            sp -= 1;
+            let Some(&(l, r, a, level)) = stack.get(sp) else {
+                break;
+            };
+            match self.classify([l, r, a]) {
+                Class::Outside => {}
+                Class::Inside => {
+                    if !visit(Edge::Inside(l, r, a, level)) {
+                        break;
+                    }
+                }
+                // A leaf cell has integer corners, so it is inside or outside, never across
+                // the edge: the level test only bounds the walk.
+                Class::Straddle if level < levels => {
+                    let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
+                    if !visit(Edge::Split(m)) {
+                        break;
+                    }
+                    // The second child below the first, which is visited next.
+                    let Some([second, first]) = stack.get_mut(sp..sp + 2) else {
+                        break;
+                    };
+                    *second = (r, a, m, level + 1);
+                    *first = (a, l, m, level + 1);
+                    sp += 2;
+                }
+                Class::Straddle => {}
+            }
+        }
     }
 
     /// Classifies a triangle (corners inside the square) against the domain.

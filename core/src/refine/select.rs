@@ -3,7 +3,7 @@
 //! mask, lazy culling) and the indexed-triangle-list output with vertices numbered by their rank
 //! in a bitmap of kept vertices.
 
-use super::grid::{Class, RefineGrid};
+use super::grid::{Class, Edge, RefineGrid};
 use super::layout::{interleaved_coords, interleaved_index, record_index};
 use super::{ErrorStore, Hierarchy, VertexRecord};
 use crate::{Camera, Error, Terrain};
@@ -819,8 +819,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     }
 
     /// [`Self::lean_frame`] for a grid that does not fill its hierarchy's square (the same
-    /// layouts): the triangles across the domain's edge first ([`Self::lean_domain`]), the
-    /// lean walk from each triangle inside.
+    /// layouts): the lean walk from each triangle inside the domain, in the order of
+    /// [`Self::walk`] ([`RefineGrid::walk_edge`]: a triangle across the edge always splits
+    /// with the frame's planes, as there).
     #[inline(never)]
     fn lean_frame_domain<S: LeanSink>(&self, sink: &mut S) -> bool {
         if self.g.side() >= 1 << 30 {
@@ -829,53 +830,19 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         let Some(v) = self.view.as_ref() else {
             return false;
         };
-        lean_layouts!(self, v, f => self.lean_domain(v, f, sink))
-    }
-
-    /// The view-dependent walk of a grid that does not fill its hierarchy's square, in the
-    /// order of [`Self::walk`]: a triangle outside the domain is dropped, one across its edge
-    /// always splits with the frame's planes (as there), and one inside goes to
-    /// [`Self::lean_walk`]. Only the triangles across the domain's edge pass here, a number that
-    /// grows with the edge's length, not the grid's area. An explicit stack of at most
-    /// `levels() + 2` entries (each split replaces its entry by its two children).
-    fn lean_domain<F: Fetch, S: LeanSink>(&self, v: &ViewData, f: &F, sink: &mut S) {
-        let n = i64::from(self.g.side());
-        let levels = self.g.levels();
-        let mut stack = [((0i64, 0i64), (0i64, 0i64), (0i64, 0i64), 0u32); LEAN_STACK];
-        // The first root is visited first: it goes on top.
-        stack[0] = ((0, 0), (n, n), (0, n), 0);
-        stack[1] = ((n, n), (0, 0), (n, 0), 0);
-        let mut sp = 2usize;
-        while sp > 0 {
-            sp -= 1;
-            let Some(&(l, r, a, level)) = stack.get(sp) else {
-                break;
-            };
-            match self.g.classify([l, r, a]) {
-                Class::Outside => {}
-                Class::Inside => {
-                    let p = |q: (i64, i64)| q.0 as u64 | ((q.1 as u64) << 32);
-                    self.lean_walk::<F, S, false>(v, f, sink, (p(l), p(r), p(a)), level);
-                }
-                // Never at a leaf (see `vi_domain`): the level test only bounds the walk.
-                Class::Straddle if level < levels => {
-                    let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
-                    // The second child below the first, which is visited next.
-                    let Some([second, first]) = stack.get_mut(sp..sp + 2) else {
-                        break;
-                    };
-                    *second = (r, a, m, level + 1);
-                    *first = (a, l, m, level + 1);
-                    sp += 2;
-                }
-                Class::Straddle => {}
+        lean_layouts!(self, v, f => self.g.walk_edge(|e| {
+            if let Edge::Inside(l, r, a, level) = e {
+                let p = |q: (i64, i64)| q.0 as u64 | ((q.1 as u64) << 32);
+                self.lean_walk::<_, S, false>(v, f, sink, (p(l), p(r), p(a)), level);
             }
-        }
+            true
+        }))
     }
 
     /// [`Self::walk`] for a view-dependent frame into a [`LeanSink`], from the two roots of a
     /// square grid (`ROOTS`) or from triangle `start` at `start_level` inside the domain of
-    /// another ([`Self::lean_domain`]; `start` and `start_level` are unused with `ROOTS`): the
+    /// another ([`Self::lean_frame_domain`]; `start` and `start_level` are unused with
+    /// `ROOTS`): the
     /// same decisions ([`Self::decide_view`]), the same triangles in the same order, with less
     /// state per triangle. Corners are packed as `x | y << 32` (a hypotenuse's midpoint is half the
     /// sum of its ends: both coordinate sums are even and below `2^31`), the vertex data is
@@ -919,7 +886,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             cur = root((p(n, n), p(0, 0), p(n, 0)));
             sp = 1usize;
         } else {
-            // One triangle inside the domain ([`Self::lean_domain`]) at `start_level`, with
+            // One triangle inside the domain ([`Self::lean_frame_domain`]) at `start_level`, with
             // the frame's planes.
             let (l, r, a) = start;
             let d = self.lean_decide(v, f, sink, l, r, v.mask, start_level);
@@ -1019,8 +986,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
     /// View-independent extraction through [`ViSquare`] with `walk` as its traversal (the
     /// plain or the `popcnt` build): from the two roots on a square grid; on other grids,
-    /// down the triangles that straddle the domain's edge ([`Self::vi_domain`]) to those
-    /// inside it.
+    /// from the triangles inside the domain ([`RefineGrid::walk_edge`], in the order of
+    /// [`Self::walk_vi`]).
     #[inline(always)]
     fn vi_square<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
         &self,
@@ -1034,50 +1001,21 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 walk(&mut vs, l, r, a, depth);
             }
         } else {
-            let n = self.g.side() as i64;
-            for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
-                self.vi_domain(&mut vs, &walk, l, r, a, 0);
-            }
+            // The triangles inside the domain, their corners packed by row-major index (a
+            // midpoint's index is the mean of its hypotenuse ends' indices in any row width).
+            let (w, levels) = (i64::from(self.g.width()), self.g.levels());
+            self.g.walk_edge(|e| {
+                if let Edge::Inside(l, r, a, level) = e {
+                    let v = |p: (i64, i64)| vs.vertex((p.1 * w + p.0) as u64);
+                    let (pl, pr, pa) = (v(l), v(r), v(a));
+                    walk(&mut vs, pl, pr, pa, levels.saturating_sub(level));
+                }
+                true
+            });
         }
         let n = vs.out.n;
         self.release(scratch, sel);
         checked(sel.counts, written, n)
-    }
-
-    /// The view-independent walk of a grid that does not fill its hierarchy's square, in the
-    /// order of [`Self::walk_vi`]: a triangle outside the domain is dropped, one that straddles
-    /// its edge always splits (as there), and one inside goes to `walk` with its corners packed
-    /// by row-major index (a midpoint's index is the mean of its hypotenuse ends' indices in
-    /// any row width). Only the triangles across the domain's edge pass here, a number that
-    /// grows with the edge's length, not the grid's area. Recursion depth at most
-    /// `levels() <= 60`.
-    fn vi_domain<O: Slot<[u32; 3]>>(
-        &self,
-        vs: &mut ViSquare<'_, '_, O>,
-        walk: &impl Fn(&mut ViSquare<'_, '_, O>, u64, u64, u64, u32),
-        l: (i64, i64),
-        r: (i64, i64),
-        a: (i64, i64),
-        level: u32,
-    ) {
-        let levels = self.g.levels();
-        match self.g.classify([l, r, a]) {
-            Class::Outside => {}
-            Class::Inside => {
-                let w = i64::from(self.g.width());
-                let v = |vs: &ViSquare<'_, '_, O>, p: (i64, i64)| vs.vertex((p.1 * w + p.0) as u64);
-                let (pl, pr, pa) = (v(vs, l), v(vs, r), v(vs, a));
-                walk(vs, pl, pr, pa, levels.saturating_sub(level));
-            }
-            // A leaf cell has integer corners, so it is inside or outside, never straddling:
-            // the level test only bounds the recursion.
-            Class::Straddle if level < levels => {
-                let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
-                self.vi_domain(vs, walk, a, l, m, level + 1);
-                self.vi_domain(vs, walk, r, a, m, level + 1);
-            }
-            Class::Straddle => {}
-        }
     }
 
     /// View-independent extraction through [`ViSquare`] up to the traversal: selects, checks the
@@ -2463,7 +2401,7 @@ macro_rules! vi_known_inline {
 }
 
 /// View-independent traversal of a grid of fewer than `2^32` samples (a square one from its two
-/// roots, others from the triangles inside the domain, [`Refiner::vi_domain`]) driven by the
+/// roots, others from the triangles inside the domain, [`RefineGrid::walk_edge`]) driven by the
 /// bitmap of kept vertices. A vertex travels as one `u64`: its row-major grid index in
 /// the low 32 bits and its rank (vertex number) in the high 32 bits; a midpoint's index is the
 /// mean of its hypotenuse ends' indices, and each rank is computed when the vertex is split off.
@@ -2627,7 +2565,8 @@ struct ViMark<'a, 's, K: Fn(usize) -> bool> {
 impl<'a, 's, K: Fn(usize) -> bool> ViMark<'a, 's, K> {
     /// Marks the corners of grid `g` and the kept part below its hierarchy's two root
     /// triangles (on a grid that does not fill its square, below the triangles inside the
-    /// domain, [`Self::domain`]); the triangle count, or `None` past `limit` triangles.
+    /// domain, [`RefineGrid::walk_edge`]); the triangle count, or `None` past `limit`
+    /// triangles.
     #[inline(always)]
     fn run(m: &'a mut Marks<'s>, limit: usize, g: &RefineGrid, kept: K) -> Option<usize> {
         let (w, h) = (g.width() as usize, g.height() as usize);
@@ -2650,37 +2589,25 @@ impl<'a, 's, K: Fn(usize) -> bool> ViMark<'a, 's, K> {
             s.walk(c11, c00, c10, g.levels());
             s.walk(c00, c11, c01, g.levels());
         } else {
-            let n = i64::from(g.side());
-            for (l, r, a) in [((n, n), (0, 0), (n, 0)), ((0, 0), (n, n), (0, n))] {
-                s.domain(g, l, r, a, 0);
-            }
+            // A split vertex across the edge is marked when it is in the domain and kept, as
+            // the dense bitmap has it.
+            let (w, h, levels) = (i64::from(g.width()), i64::from(g.height()), g.levels());
+            let idx = |p: (i64, i64)| (p.1 * w + p.0) as usize;
+            g.walk_edge(|e| {
+                match e {
+                    Edge::Inside(l, r, a, level) => {
+                        s.walk(idx(l), idx(r), idx(a), levels.saturating_sub(level));
+                    }
+                    Edge::Split(m) => {
+                        if m.0 < w && m.1 < h && (s.kept)(idx(m)) {
+                            s.m.mark(idx(m));
+                        }
+                    }
+                }
+                !s.over
+            });
         }
         (!s.over && s.n <= limit).then_some(s.n)
-    }
-
-    /// [`Refiner::vi_domain`]'s walk, marking: a triangle outside the domain is dropped, one
-    /// across its edge splits (its split vertex marked when it is in the domain and kept, as
-    /// the dense bitmap has it), one inside is walked by [`Self::walk`]. Recursion depth at
-    /// most `levels() <= 60`.
-    fn domain(&mut self, g: &RefineGrid, l: (i64, i64), r: (i64, i64), a: (i64, i64), level: u32) {
-        let levels = g.levels();
-        let w = i64::from(g.width());
-        let idx = |p: (i64, i64)| (p.1 * w + p.0) as usize;
-        match g.classify([l, r, a]) {
-            Class::Outside => {}
-            Class::Inside => self.walk(idx(l), idx(r), idx(a), levels.saturating_sub(level)),
-            // Never at a leaf (see `vi_domain`): the level test only bounds the recursion.
-            Class::Straddle if level < levels && !self.over => {
-                let m = ((l.0 + r.0) >> 1, (l.1 + r.1) >> 1);
-                let inside = m.0 < w && m.1 < i64::from(g.height());
-                if inside && (self.kept)(idx(m)) {
-                    self.m.mark(idx(m));
-                }
-                self.domain(g, a, l, m, level + 1);
-                self.domain(g, r, a, m, level + 1);
-            }
-            Class::Straddle => {}
-        }
     }
 
     /// Counts a triangle of `2^depth` leaf triangles' area. Past the budget (checked every
@@ -3089,8 +3016,8 @@ mod vi_domain_tests {
     use std::vec;
     use std::vec::Vec;
 
-    /// The packed walk of grids that do not fill their square (`vi_domain` down to the
-    /// triangles inside the domain, then `ViSquare`) against `walk_vi` into `ListSink`, the
+    /// The packed walk of grids that do not fill their square (`RefineGrid::walk_edge` down to
+    /// the triangles inside the domain, then `ViSquare`) against `walk_vi` into `ListSink`, the
     /// walk it replaced there: the same triangles in the same order (`triangles_popcnt` against
     /// `triangles`: `tests/tests/refine.rs`).
     #[test]
