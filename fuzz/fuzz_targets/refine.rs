@@ -3,20 +3,51 @@
 //! their measured vertical error is at most E; view-dependent meshes without culling are
 //! crack-free, with culling they have no flipped or overlapping triangles; a buffer one element
 //! too small is an error, never a truncated mesh; `triangles_uninit` writes what `triangles`
-//! writes, and grid-coordinate vertices give the same triangles.
+//! writes, and grid-coordinate vertices give the same triangles; both triangle strips are
+//! crack-free with or without culling (culled triangles drawn coarse), within `strip_bound`, and
+//! draw the list's triangles view-independently off the `(2^k+1)^2` square.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    coverage_len, preprocess, scratch_len, triangle_bound, vertex_bound, vertical_error, Criterion,
-    Refiner, View,
+    coverage_len, preprocess, scratch_len, strip_bound, triangle_bound, vertex_bound,
+    vertical_error, Criterion, Refiner, View,
 };
-use relief_core::{Camera, Heightfield, Scale};
+use relief_core::{Camera, Heightfield, Scale, Terrain};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
 
 fn f32_at(d: &[u8], i: usize) -> f32 {
     f32::from_le_bytes([0, 1, 2, 3].map(|k| d.get(i + k).copied().unwrap_or(0)))
+}
+
+/// Both strips of `r` decoded into counter-clockwise triangles, each checked with `opts`;
+/// returns their triangle counts (in/out-edge, SOAR's).
+fn strips<T: Terrain>(r: &Refiner<'_, '_, T>, w: u32, h: u32, opts: &CheckOptions) -> [usize; 2] {
+    let mut counts = [0; 2];
+    for (k, soar) in [false, true].into_iter().enumerate() {
+        let mut scratch = vec![0u64; scratch_len(w, h)];
+        let mut v = vec![[0.0f32; 3]; vertex_bound(w, h)];
+        let mut s = vec![0u32; strip_bound(w, h)];
+        let c = if soar {
+            r.soar_strip(&mut scratch, &mut v, &mut s)
+        } else {
+            r.inout_strip(&mut scratch, &mut v, &mut s)
+        }
+        .unwrap();
+        let s = &s[..c.indices];
+        let t: Vec<[u32; 3]> = (0..s.len().saturating_sub(2))
+            .filter(|&i| s[i] != s[i + 1] && s[i + 1] != s[i + 2] && s[i] != s[i + 2])
+            .map(|i| match i % 2 {
+                0 => [s[i], s[i + 1], s[i + 2]],
+                _ => [s[i + 1], s[i], s[i + 2]],
+            })
+            .collect();
+        assert_eq!(t.len(), c.triangles);
+        check_mesh(&v[..c.vertices], &t, opts).unwrap();
+        counts[k] = c.triangles;
+    }
+    counts
 }
 
 fuzz_target!(|data: &[u8]| {
@@ -82,6 +113,10 @@ fuzz_target!(|data: &[u8]| {
         let mut short = vec![[0u32; 3]; c.triangles - 1];
         assert!(r.triangles(&mut scratch, &mut verts, &mut short).is_err());
     }
+    // The strips: off the square, no level is forced, so they draw the list's triangles.
+    let strip_triangles = strips(&r, w, h, &grid);
+    let square = w == h && (w - 1).is_power_of_two();
+    assert!(square || strip_triangles == [c.triangles; 2]);
 
     // View-dependent, from a camera made of the input bytes.
     let eye = Vec3::new(f32_at(data, 4), f32_at(data, 8), f32_at(data, 12));
@@ -110,5 +145,7 @@ fuzz_target!(|data: &[u8]| {
         };
         let c = r.triangles(&mut scratch, &mut verts, &mut tris).unwrap();
         check_mesh(&verts[..c.vertices], &tris[..c.triangles], &opts).unwrap();
+        // The strips draw culled triangles coarse and cull at every level: whole meshes.
+        strips(&r, w, h, &grid);
     }
 });

@@ -621,9 +621,45 @@ fn check_vd_on(t: &Vd, eye: Vec3, target: Vec3, tau: f32) -> usize {
             check_mesh(&m.v, &m.t, &o)
                 .unwrap_or_else(|s| panic!("culling {culling} lazy {lazy}: {s}"));
             checked += screen_check(&hf, &m, &c, tau);
+            // Both strips draw culled triangles coarse and test culling at every level: no
+            // holes, no T-junctions.
+            let r = Refiner::new(h, &hf, Criterion::View(v)).unwrap();
+            for soar in [false, true] {
+                let m = strip_mesh(&r, &hf, soar);
+                o.allow_holes = false;
+                o.t_junctions = true;
+                check_mesh(&m.v, &m.t, &o).unwrap_or_else(|s| {
+                    panic!("strip (soar {soar}) culling {culling} lazy {lazy}: {s}")
+                });
+                checked += screen_check(&hf, &m, &c, tau);
+            }
         }
     }
     checked
+}
+
+/// The in/out-edge strip (or SOAR's with `soar`) of `r` as triangles (degenerates dropped,
+/// odd positions turned round), within [`strip_bound`].
+fn strip_mesh<T: Terrain>(r: &Refiner<'_, '_, T>, t: &T, soar: bool) -> Mesh {
+    let (w, h) = (t.width(), t.height());
+    let mut s = vec![0; scratch_len(w, h)];
+    let mut v = vec![[0.0; 3]; hierarchy_len(w, h)];
+    let mut st = vec![0; strip_bound(w, h)];
+    let c = if soar {
+        r.soar_strip(&mut s, &mut v, &mut st).unwrap()
+    } else {
+        r.inout_strip(&mut s, &mut v, &mut st).unwrap()
+    };
+    let mut t = vec![];
+    for k in 0..c.indices.saturating_sub(2) {
+        let (a, b, d) = (st[k], st[k + 1], st[k + 2]);
+        if a != b && b != d && a != d {
+            t.push(if k % 2 == 0 { [a, b, d] } else { [b, a, d] });
+        }
+    }
+    assert_eq!(t.len(), c.triangles);
+    v.truncate(c.vertices);
+    Mesh { v, t }
 }
 
 /// View-dependent frames of a square grid on every layout: `refine` checks that

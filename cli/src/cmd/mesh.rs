@@ -408,8 +408,8 @@ pub fn run(a: &MeshArgs) -> CliResult {
     } = times;
     vertices.truncate(counts.vertices);
     triangles.truncate(counts.triangles);
-    let strip = strip_stats(&refiner, &hf, w, h, false)?;
-    let soar_strip = strip_stats(&refiner, &hf, w, h, true)?;
+    let strip = strip_stats(&refiner, w, h, false)?;
+    let soar_strip = strip_stats(&refiner, w, h, true)?;
     let mut cov = vec![0u64; coverage_len(w, h)];
     let (max_err, uncovered) = vertical_error_partial(&hf, &vertices, &triangles, &mut cov)?;
     if criterion_kind == "view-independent" && uncovered.is_some() {
@@ -421,13 +421,11 @@ pub fn run(a: &MeshArgs) -> CliResult {
     relief_io::write_obj(a_out, &vertices, &triangles)?;
     let uncovered_n = uncovered.map_or(0, |u| u.2);
     if a.json {
-        let stats = |c: Option<StripCounts>| {
-            c.map(|s| {
-                serde_json::json!({
-                    "indices": s.indices,
-                    "triangles": s.triangles,
-                    "indices_per_triangle": s.indices_per_triangle(),
-                })
+        let stats = |s: StripCounts| {
+            serde_json::json!({
+                "indices": s.indices,
+                "triangles": s.triangles,
+                "indices_per_triangle": s.indices_per_triangle(),
             })
         };
         let strip_json = stats(strip);
@@ -449,22 +447,19 @@ pub fn run(a: &MeshArgs) -> CliResult {
             "refine_ms": refine_ms,
             "refine_reused_ms": refine_reused_ms,
             "refine_fresh_repeat_ms": refine_fresh_repeat_ms,
-            "strip_length": strip.map(|s| s.indices),
+            "strip_length": strip.indices,
             "inout_strip": strip_json,
             "soar_strip": soar_json,
             "out": a_out.display().to_string(),
         });
         print_out(&format!("{v}\n"))
     } else {
-        let strip_line = match strip {
-            Some(s) => format!(
-                "{} indices, {} triangles ({:.3} per triangle)",
-                s.indices,
-                s.triangles,
-                s.indices_per_triangle()
-            ),
-            None => "n/a (grid is not (2^k+1) x (2^k+1))".into(),
-        };
+        let strip_line = format!(
+            "{} indices, {} triangles ({:.3} per triangle)",
+            strip.indices,
+            strip.triangles,
+            strip.indices_per_triangle()
+        );
         print_out(&format!(
             "{out}\n  mode        {criterion_kind}\n  size        {w} x {h}\n  vertices    {v}\n  triangles   {t}\n  max error   {max_err:.4} (measured over {cov} samples)\n  preprocess  {preprocess_ms:.1} ms ({layout:?}, {bpv} bytes/vertex{repeat})\n  refine      {refine_ms:.1} ms (fresh buffers; {refine_reused_ms:.1} ms into reused buffers)\n  strip       {strip_line}\n",
             out = a_out.display(),
@@ -668,24 +663,19 @@ fn unreachable_criterion() -> CliResult<Criterion> {
     ))
 }
 
-/// The size of the in/out-edge strip (or SOAR's original strip with `soar`); square
-/// `(2^k+1)^2` grids only.
+/// The size of the in/out-edge strip (or SOAR's original strip with `soar`).
 fn strip_stats(
     r: &Refiner<'_, '_, Heightfield<'_, f32>>,
-    _hf: &Heightfield<'_, f32>,
     w: u32,
     h: u32,
     soar: bool,
-) -> CliResult<Option<StripCounts>> {
-    if !relief_core::refine::RefineGrid::new(w, h)?.is_square() {
-        return Ok(None);
-    }
+) -> CliResult<StripCounts> {
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let mut v = vec![[0.0f32; 3]; hierarchy_len(w, h)];
     let mut s = vec![0u32; strip_bound(w, h)];
-    Ok(Some(if soar {
+    Ok(if soar {
         r.soar_strip(&mut scratch, &mut v, &mut s)?
     } else {
         r.inout_strip(&mut scratch, &mut v, &mut s)?
-    }))
+    })
 }

@@ -143,7 +143,8 @@ impl View {
     /// Lazy culling (seed 004, chapter 5.2): vertices in the finest `levels` levels are not
     /// tested against the frustum but accepted as if inside (default 4; 0 tests every level).
     /// This removes the culling pop of spheres that do not contain their diamond, and leaves
-    /// T-junctions only outside the view.
+    /// T-junctions only outside the view. The strips ([`Refiner::inout_strip`],
+    /// [`Refiner::soar_strip`]) test culling at every level: a T-junction breaks a strip.
     ///
     /// ```
     /// # use relief_core::{refine::View, Camera}; use glam::Vec3;
@@ -1616,6 +1617,23 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                     sink.tri(l, r, a);
                 }
             }
+        }
+    }
+
+    /// This refiner with frustum culling tested at every level (no lazy culling), for the
+    /// strips: their decisions must be nested, and lazy culling is not outside the view (a
+    /// vertex below the lazy levels can be active while a parent is culled).
+    pub(crate) fn strict_culling(&self) -> Self {
+        Refiner {
+            h: self.h,
+            t: self.t,
+            g: self.g,
+            max_error: self.max_error,
+            view: self.view.map(|v| ViewData {
+                lazy_from: u32::MAX,
+                ..v
+            }),
+            order: self.order,
         }
     }
 

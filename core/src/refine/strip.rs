@@ -2,10 +2,15 @@
 //! 2003, chapter 5.1: enter/leave edges, restricted left-only and right-only refinement that
 //! never visits vertices which cannot be active, corner turns by one repeated index).
 //!
-//! The strip covers the square `(2^k+1)^2` grid; the square's centre and the midpoints of its
-//! sides are always refined (the four base triangles of SOAR, chapter 4.5). A culled vertex is
-//! treated as inactive: its triangles are drawn coarse (outside the view), as in SOAR.
+//! On a square `(2^k+1)^2` grid the strip covers the square; the square's centre and the
+//! midpoints of its sides are always refined (the four base triangles of SOAR, chapter 4.5). On
+//! a grid of any other size it covers exactly the domain: the triangles across the domain's edge
+//! always split, as in [`Refiner::triangles`], and each triangle inside it gets a strip of its
+//! own, started as the square's strip starts (its entry vertex twice, at the same parity) and
+//! joined to the strip before it by degenerate triangles. A culled vertex is treated as
+//! inactive: its triangles are drawn coarse (outside the view), as in SOAR.
 
+use super::grid::Edge;
 use super::select::{marks, need, rank, BitOrder, Decision, Marks, MeshVertex, Refiner};
 use super::StripCounts;
 use crate::{Error, Terrain};
@@ -86,18 +91,19 @@ impl<T: Terrain, O: Out> Strip<'_, '_, '_, T, O> {
     /// SOAR's `submesh_refine` (Lindstrom & Pascucci 2001): triangle with apex `i` and split
     /// vertex `j`, entered at `p`; `i` (at `level`) is tested, and appended between the two
     /// children's strips.
-    fn soar_submesh(&mut self, i: P, j: P, p: P, level: u32, planes: u8) {
+    /// `forced`: `i` is active whatever its decision (the square's centre, or the split vertex
+    /// of a triangle across the domain's edge).
+    fn soar_submesh(&mut self, i: P, j: P, p: P, level: u32, planes: u8, forced: bool) {
         let mut pl = planes;
-        let forced = level == 0;
         if !(forced || self.active(i, level, &mut pl)) {
             return;
         }
         let parity = (self.levels - level) % 2 == 1;
         if level + 1 < self.levels {
             let q = (2 * j.0 - p.0, 2 * j.1 - p.1);
-            self.soar_submesh(j, mid(i, p), p, level + 1, pl);
+            self.soar_submesh(j, mid(i, p), p, level + 1, pl, false);
             self.append_parity(i, parity);
-            self.soar_submesh(j, mid(i, q), i, level + 1, pl);
+            self.soar_submesh(j, mid(i, q), i, level + 1, pl, false);
         } else {
             self.append_parity(i, parity);
         }
@@ -125,7 +131,7 @@ impl<T: Terrain, O: Out> Strip<'_, '_, '_, T, O> {
         self.append((0, 0));
         self.parity = true;
         for (m, p, q) in bases {
-            self.soar_submesh(c, m, p, 0, mask);
+            self.soar_submesh(c, m, p, 0, mask, true);
             self.append_parity(q, true);
         }
     }
@@ -289,16 +295,95 @@ impl<T: Terrain, O: Out> Strip<'_, '_, '_, T, O> {
     }
 }
 
+impl<T: Terrain, O: Out> Strip<'_, '_, '_, T, O> {
+    /// Starts a new piece of the strip at `p` as the whole strip starts: `p` twice, the second
+    /// at an odd position (`odd`) or an even one. Before it, the last vertex repeated and `p`
+    /// repeated: degenerate triangles only (at most four indices; fewer when the strip so far
+    /// ends at `p`).
+    fn restart(&mut self, p: P, odd: bool) {
+        if self.len > 0 && self.last[1] != p {
+            self.turn_corner_last();
+        }
+        // At most three appends: `p`, `p` and one more to fix the position's parity.
+        for _ in 0..3 {
+            let at_odd = self.len.is_multiple_of(2); // the last index is at len - 1
+            if self.len >= 2 && self.last == [p, p] && at_odd == odd {
+                break;
+            }
+            self.append(p);
+        }
+        self.first = true;
+        self.left_only = false;
+    }
+
+    /// Repeats the last index (a degenerate triangle; the strip's side is kept).
+    fn turn_corner_last(&mut self) {
+        let v = self.last[1];
+        self.append(v);
+    }
+
+    /// A grid that does not fill its square: the triangles across the domain's edge split,
+    /// each triangle `(l, r, a)` inside (counter-clockwise, its split vertex `mid(l, r)` at
+    /// `level`) gets its own piece of strip from `l` to `r` ([`Self::restart`]), the in/out-edge
+    /// strip's (`soar == false`) or SOAR's. SOAR's parity: a vertex at `level` (the square's
+    /// centre is 0, the corners -1) sits at odd positions when `levels - level` is odd (the
+    /// number of levels is even).
+    fn run_domain(&mut self, soar: bool) {
+        let mask = self.r.view.map_or(0, |v| v.mask);
+        let (g, levels) = (self.r.g, self.levels);
+        // A vertex's side of the strip; the square's corners (no level) are on the odd side.
+        let parity = |v: P| {
+            g.level(v.0 as u32, v.1 as u32)
+                .is_none_or(|lv| levels.saturating_sub(lv) % 2 == 1)
+        };
+        g.walk_edge(|e| {
+            let Edge::Inside(l, r, a, level) = e else {
+                return true;
+            };
+            let m = mid(l, r);
+            if soar {
+                // SOAR's triangle `(p, q, i)` entered at `p` turns counter-clockwise when its
+                // apex `i` has an even level, as the base triangles do, and clockwise when odd:
+                // entered at `l` or at `r`.
+                let apex = level.saturating_sub(1);
+                let (p, q) = if apex % 2 == 0 { (l, r) } else { (r, l) };
+                let (pp, pq) = (parity(p), parity(q));
+                self.restart(p, pp);
+                self.parity = pp;
+                // The apex is active: the triangle's parent split.
+                self.soar_submesh(a, m, p, apex, mask, true);
+                self.append_parity(q, pq);
+            } else {
+                self.restart(l, true);
+                let mut pm = mask;
+                if self.active(m, level, &mut pm) {
+                    self.refine(a, m, l, level, SIDE, SIDE, pm);
+                    self.append(r);
+                } else {
+                    self.append(a);
+                    self.append(r);
+                }
+            }
+            true
+        });
+    }
+}
+
 impl<T: Terrain> Refiner<'_, '_, T> {
     /// Seed 004's in/out-edge generalized triangle strip (Balogh 2003, chapter 5.1) for a
-    /// square `(2^k+1)^2` grid: fills `vertices` (positions or grid coordinates, see
+    /// grid of any size: fills `vertices` (positions or grid coordinates, see
     /// [`MeshVertex`]) and `strip` (indices; every three consecutive
     /// indices form a triangle, counter-clockwise seen from +z on even positions and clockwise on
     /// odd ones, degenerate triangles included) and returns the counts.
     ///
-    /// The square's centre and side midpoints are always refined; culled vertices are treated as
-    /// inactive (their triangles drawn coarse, as SOAR does). Other grid sizes:
-    /// [`Error::InvalidParameter`] (use [`Refiner::triangles`]). Buffers too small:
+    /// On a square `(2^k+1)^2` grid the square's centre and side midpoints are always refined;
+    /// on any other grid the triangles across the domain's edge are (as in
+    /// [`Refiner::triangles`]), and the strip is made of one piece per triangle inside, joined
+    /// by degenerate triangles ([`strip_bound`](super::strip_bound) counts them). Culled
+    /// vertices are treated as inactive (their triangles drawn coarse, as SOAR does), and
+    /// culling is tested at every level: lazy culling ([`View::with_lazy_levels`](super::View::with_lazy_levels)) would leave
+    /// T-vertices outside the view, which a strip cannot draw (its triangles are consecutive
+    /// indices, so they would come out wrong). Buffers too small:
     /// [`Error::BufferTooSmall`]; coordinates that do not fit the vertex type:
     /// [`Error::SizeOverflow`].
     ///
@@ -313,6 +398,15 @@ impl<T: Terrain> Refiner<'_, '_, T> {
     /// let mut s = vec![0u32; strip_bound(5, 5)];
     /// let c = rf.inout_strip(&mut vec![0; scratch_len(5, 5)], &mut v, &mut s).unwrap();
     /// assert_eq!((c.vertices, c.triangles), (9, 8)); // flat: the four base triangles, halved
+    ///
+    /// // 5 x 3: the triangles across the domain's edge split, down to the two of the domain.
+    /// let hf = Heightfield::new(&[0.0f32; 15], 5, 3).unwrap();
+    /// let (mut e, mut r) = ([0.0; 15], [0.0; 15]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(1.0)).unwrap();
+    /// let mut s = vec![0u32; strip_bound(5, 3)];
+    /// let c = rf.inout_strip(&mut vec![0; scratch_len(5, 3)], &mut v, &mut s).unwrap();
+    /// assert_eq!(c.triangles, rf.count(&mut vec![0; scratch_len(5, 3)]).unwrap().triangles);
     /// ```
     pub fn inout_strip<P: MeshVertex>(
         &self,
@@ -325,8 +419,9 @@ impl<T: Terrain> Refiner<'_, '_, T> {
 
     /// SOAR's original generalized triangle strip (Lindstrom & Pascucci 2001: `submesh_refine`
     /// appending each triangle's apex between its children, `tstrip_append` inserting a
-    /// degenerate triangle when parities match), for a square `(2^k+1)^2` grid; same buffers,
-    /// counts and errors as [`Refiner::inout_strip`]. The square's centre is always refined.
+    /// degenerate triangle when parities match), for a grid of any size; same buffers,
+    /// counts, errors, culling and pieces as [`Refiner::inout_strip`]. On a square
+    /// `(2^k+1)^2` grid the square's centre is always refined.
     ///
     /// ```
     /// use relief_core::refine::{preprocess, scratch_len, strip_bound, Criterion, Refiner};
@@ -357,17 +452,13 @@ impl<T: Terrain> Refiner<'_, '_, T> {
         soar: bool,
     ) -> Result<StripCounts, Error> {
         self.fits_vertex::<P>()?;
-        if !self.g.is_square() {
-            return Err(Error::InvalidParameter {
-                name: "strip grid (needs a (2^k+1) x (2^k+1) grid)",
-                value: self.g.width() as f32,
-            });
-        }
+        let strict = self.strict_culling();
+        let square = self.g.is_square();
         let mut m = marks(scratch, self.g.len())?;
         m.begin_sparse();
         let o = self.order();
         let mut pass1 = Strip {
-            r: self,
+            r: &strict,
             out: Mark { m: &mut m, o },
             last: [(-1, -1); 2],
             len: 0,
@@ -377,7 +468,9 @@ impl<T: Terrain> Refiner<'_, '_, T> {
             levels: self.g.levels(),
             parity: false,
         };
-        if soar {
+        if !square {
+            pass1.run_domain(soar);
+        } else if soar {
             pass1.run_soar();
         } else {
             pass1.run();
@@ -395,7 +488,7 @@ impl<T: Terrain> Refiner<'_, '_, T> {
         need(counts.indices, strip.len())?;
         self.write_vertices_in(m.bits, m.touched(), vertices);
         let mut pass2 = Strip {
-            r: self,
+            r: &strict,
             out: Write {
                 bits: m.bits,
                 prefix: m.prefix,
@@ -411,7 +504,9 @@ impl<T: Terrain> Refiner<'_, '_, T> {
             levels: self.g.levels(),
             parity: false,
         };
-        if soar {
+        if !square {
+            pass2.run_domain(soar);
+        } else if soar {
             pass2.run_soar();
         } else {
             pass2.run();

@@ -207,69 +207,99 @@ fn soar_strip_draws_the_list_mesh() {
 }
 
 fn strips_draw_the_list_mesh(soar: bool) {
-    for (n, seed, e) in [
-        (3u32, 1u64, 0.0f32),
-        (5, 2, 0.0),
-        (9, 3, 5.0),
-        (33, 4, 10.0),
-        (65, 5, 3.0),
-        (129, 6, 20.0),
+    for (n, m, seed, e) in [
+        (3u32, 3u32, 1u64, 0.0f32),
+        (5, 5, 2, 0.0),
+        (9, 9, 3, 5.0),
+        (33, 33, 4, 10.0),
+        (65, 65, 5, 3.0),
+        (129, 129, 6, 20.0),
+        // Any size: the domain's edge splits.
+        (2, 3, 7, 0.0),
+        (3, 2, 8, 1e9),
+        (7, 5, 9, 0.0),
+        (13, 10, 10, 5.0),
+        (40, 17, 11, 1e9),
+        (100, 37, 12, 10.0),
+        (66, 65, 13, 3.0),
+        (129, 200, 14, 20.0),
     ] {
-        let s = grid(n, n, seed, 100.0);
-        let hf = Heightfield::new(&s, n, n).unwrap();
-        let mut er = vec![0u16; (n * n) as usize];
-        let hi = preprocess_compact(&hf, &mut er).unwrap();
-        let r = Refiner::new(&hi, &hf, Criterion::MaxError(e)).unwrap();
-        let (v, st, c) = strip(&r, soar);
-        // With grid coordinates: the same strip, each vertex's column and row.
-        let mut sc = vec![0; scratch_len(n, n)];
-        let mut g = vec![[0u16; 2]; (n * n) as usize];
-        let mut st2 = vec![0; strip_bound(n, n)];
-        let c2 = if soar {
-            r.soar_strip(&mut sc, &mut g, &mut st2).unwrap()
-        } else {
-            r.inout_strip(&mut sc, &mut g, &mut st2).unwrap()
-        };
-        assert_eq!(c2, c);
-        assert_eq!(st2[..c.indices], st[..c.indices]);
-        for (g, p) in g[..c.vertices].iter().zip(&v) {
-            assert_eq!([g[0] as f32, g[1] as f32], [p[0], p[1]]);
-        }
-        let tris = decode(&st[..c.indices]);
-        assert_eq!(tris.len(), c.triangles);
-        let m = Mesh {
-            v: v[..c.vertices].to_vec(),
-            t: tris.clone(),
-        };
-        assert!(ccw(&m), "n={n}: strip triangle not counter-clockwise");
-        assert!(scan(&hf, &m) <= e as f64);
-        let want = ((n - 1) * (n - 1)) as f64;
-        assert!(
-            (area(&m) - want).abs() < 1e-6 * want,
-            "n={n}: area {} vs {want}",
-            area(&m)
-        );
-        // Same as the list when the top levels are refined anyway.
-        let l = list(&hi, &hf, Criterion::MaxError(e));
-        if l.t.len() == tris.len() {
-            let key = |mm: &Mesh, t: [u32; 3]| {
-                let p = t.map(|i| mm.v[i as usize].map(f32::to_bits));
-                let k = (0..3).min_by_key(|&i| p[i]).unwrap();
-                [p[k], p[(k + 1) % 3], p[(k + 2) % 3]]
-            };
-            let mut x: Vec<_> = tris.iter().map(|&t| key(&m, t)).collect();
-            let mut y: Vec<_> = l.t.iter().map(|&t| key(&l, t)).collect();
-            x.sort();
-            y.sort();
-            assert_eq!(x, y, "n={n}");
-        }
-        std::println!(
-            "n={n} E={e}: {} indices for {} triangles ({:.3})",
-            c.indices,
-            c.triangles,
-            c.indices_per_triangle()
-        );
+        strip_draws_the_list_mesh(n, m, seed, e, soar);
     }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(96))]
+    /// Both strips draw the list's mesh on grids of any size, within [`strip_bound`].
+    #[test]
+    fn strips_of_any_size_draw_the_list_mesh(
+        w in 2u32..48, h in 2u32..48, seed in 1u64..1000, e in prop::sample::select(vec![0.0f32, 1.0, 5.0, 20.0, 1e9]),
+        soar in prop::bool::ANY,
+    ) {
+        strip_draws_the_list_mesh(w, h, seed, e, soar);
+    }
+}
+
+/// Both strips of an `n x nh` noise grid at threshold `e`: the list's mesh (where no level is
+/// forced), counter-clockwise, within E, covering the domain, within [`strip_bound`].
+fn strip_draws_the_list_mesh(n: u32, nh: u32, seed: u64, e: f32, soar: bool) {
+    let s = grid(n, nh, seed, 100.0);
+    let hf = Heightfield::new(&s, n, nh).unwrap();
+    let mut er = vec![0u16; (n * nh) as usize];
+    let hi = preprocess_compact(&hf, &mut er).unwrap();
+    let r = Refiner::new(&hi, &hf, Criterion::MaxError(e)).unwrap();
+    let (v, st, c) = strip(&r, soar);
+    assert!(c.indices <= strip_bound(n, nh), "{n}x{nh}: {c:?}");
+    // With grid coordinates: the same strip, each vertex's column and row.
+    let mut sc = vec![0; scratch_len(n, nh)];
+    let mut g = vec![[0u16; 2]; (n * nh) as usize];
+    let mut st2 = vec![0; strip_bound(n, nh)];
+    let c2 = if soar {
+        r.soar_strip(&mut sc, &mut g, &mut st2).unwrap()
+    } else {
+        r.inout_strip(&mut sc, &mut g, &mut st2).unwrap()
+    };
+    assert_eq!(c2, c);
+    assert_eq!(st2[..c.indices], st[..c.indices]);
+    for (g, p) in g[..c.vertices].iter().zip(&v) {
+        assert_eq!([g[0] as f32, g[1] as f32], [p[0], p[1]]);
+    }
+    let tris = decode(&st[..c.indices]);
+    assert_eq!(tris.len(), c.triangles);
+    let m = Mesh {
+        v: v[..c.vertices].to_vec(),
+        t: tris.clone(),
+    };
+    assert!(ccw(&m), "{n}x{nh}: strip triangle not counter-clockwise");
+    assert!(scan(&hf, &m) <= e as f64);
+    let want = ((n - 1) * (nh - 1)) as f64;
+    assert!(
+        (area(&m) - want).abs() < 1e-6 * want,
+        "{n}x{nh}: area {} vs {want}",
+        area(&m)
+    );
+    // Same as the list when the top levels are refined anyway (always on a grid that does
+    // not fill its square: no forced levels there).
+    let l = list(&hi, &hf, Criterion::MaxError(e));
+    let square = n == nh && (n - 1).is_power_of_two();
+    if l.t.len() == tris.len() || !square {
+        let key = |mm: &Mesh, t: [u32; 3]| {
+            let p = t.map(|i| mm.v[i as usize].map(f32::to_bits));
+            let k = (0..3).min_by_key(|&i| p[i]).unwrap();
+            [p[k], p[(k + 1) % 3], p[(k + 2) % 3]]
+        };
+        let mut x: Vec<_> = tris.iter().map(|&t| key(&m, t)).collect();
+        let mut y: Vec<_> = l.t.iter().map(|&t| key(&l, t)).collect();
+        x.sort();
+        y.sort();
+        assert_eq!(x, y, "{n}x{nh}");
+    }
+    std::println!(
+        "{n}x{nh} E={e}: {} indices for {} triangles ({:.3})",
+        c.indices,
+        c.triangles,
+        c.indices_per_triangle()
+    );
 }
 
 fn view_mesh<T: Terrain>(h: &Hierarchy<'_>, t: &T, v: View) -> Mesh {
