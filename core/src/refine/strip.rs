@@ -293,9 +293,7 @@ impl<T: Terrain, O: Out> Strip<'_, '_, '_, T, O> {
             self.append(q);
         }
     }
-}
 
-impl<T: Terrain, O: Out> Strip<'_, '_, '_, T, O> {
     /// Starts a new piece of the strip at `p` as the whole strip starts: `p` twice, the second
     /// at an odd position (`odd`) or an even one. Before it, the last vertex repeated and `p`
     /// repeated: degenerate triangles only (at most four indices; fewer when the strip so far
@@ -381,9 +379,10 @@ impl<T: Terrain> Refiner<'_, '_, T> {
     /// [`Refiner::triangles`]), and the strip is made of one piece per triangle inside, joined
     /// by degenerate triangles ([`strip_bound`](super::strip_bound) counts them). Culled
     /// vertices are treated as inactive (their triangles drawn coarse, as SOAR does), and
-    /// culling is tested at every level: lazy culling ([`View::with_lazy_levels`](super::View::with_lazy_levels)) would leave
-    /// T-vertices outside the view, which a strip cannot draw (its triangles are consecutive
-    /// indices, so they would come out wrong). Buffers too small:
+    /// culling is tested at every level: lazy culling
+    /// ([`View::with_lazy_levels`](super::View::with_lazy_levels)) would leave T-vertices
+    /// outside the view, which a strip cannot draw (its triangles are consecutive indices, so
+    /// they would come out wrong). Buffers too small:
     /// [`Error::BufferTooSmall`]; coordinates that do not fit the vertex type:
     /// [`Error::SizeOverflow`].
     ///
