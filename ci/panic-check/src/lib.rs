@@ -415,6 +415,12 @@ pub unsafe extern "C" fn pc_refine(
             )
             .map_or(0.0, |c| c.indices as f64);
         acc += r
+            .inout_strip_counts(view_mut(scratch, scratch_len))
+            .map_or(0.0, |c| c.indices as f64);
+        acc += r
+            .soar_strip_counts(view_mut(scratch, scratch_len))
+            .map_or(0.0, |c| c.indices as f64);
+        acc += r
             .morph(view_mut(scratch, scratch_len), view_mut(morph, morph_len))
             .unwrap_or(0) as f64;
     }

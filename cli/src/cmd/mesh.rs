@@ -8,8 +8,8 @@ use clap::{Args, ValueEnum};
 use relief_core::glam::Vec3;
 use relief_core::refine::{
     coverage_len, hierarchy_len, pack_records, preprocess, preprocess_compact, records_len,
-    scratch_len, strip_bound, vertical_error_partial, Criterion, FrameCounts, Hierarchy,
-    MeshVertex, RecordLayout, Refiner, StripCounts, VertexRecord, View,
+    scratch_len, vertical_error_partial, Criterion, FrameCounts, Hierarchy, MeshVertex,
+    RecordLayout, Refiner, StripCounts, VertexRecord, View,
 };
 use relief_core::refine::{triangle_bound, vertex_bound};
 use relief_core::Terrain;
@@ -671,8 +671,13 @@ fn strip_stats(
     soar: bool,
 ) -> CliResult<StripCounts> {
     let mut scratch = vec![0u64; scratch_len(w, h)];
-    let mut v = vec![[0.0f32; 3]; hierarchy_len(w, h)];
-    let mut s = vec![0u32; strip_bound(w, h)];
+    let need = if soar {
+        r.soar_strip_counts(&mut scratch)?
+    } else {
+        r.inout_strip_counts(&mut scratch)?
+    };
+    let mut v = vec![[0.0f32; 3]; need.vertices];
+    let mut s = vec![0u32; need.indices];
     Ok(if soar {
         r.soar_strip(&mut scratch, &mut v, &mut s)?
     } else {

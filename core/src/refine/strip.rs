@@ -72,7 +72,35 @@ struct Strip<'r, 'h, 't, T: Terrain, O: Out> {
     parity: bool,
 }
 
-impl<T: Terrain, O: Out> Strip<'_, '_, '_, T, O> {
+impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
+    /// An empty strip of `r`'s mesh into `out`.
+    fn new(r: &'r Refiner<'h, 't, T>, out: O) -> Self {
+        Strip {
+            r,
+            out,
+            last: [(-1, -1); 2],
+            len: 0,
+            tris: 0,
+            first: true,
+            left_only: false,
+            levels: r.g.levels(),
+            parity: false,
+        }
+    }
+
+    /// The whole strip: a square grid's ([`Self::run`], or SOAR's [`Self::run_soar`]), or one
+    /// piece per triangle inside the domain of another ([`Self::run_domain`]).
+    fn walk(mut self, soar: bool) -> Self {
+        if !self.r.g.is_square() {
+            self.run_domain(soar);
+        } else if soar {
+            self.run_soar();
+        } else {
+            self.run();
+        }
+        self
+    }
+
     /// SOAR's `tstrip_append`: skip a vertex already in the last two; insert a degenerate
     /// (repeat the second-to-last index) when the new vertex has the strip's current parity.
     fn append_parity(&mut self, v: P, p: bool) {
@@ -443,6 +471,68 @@ impl<T: Terrain> Refiner<'_, '_, T> {
         self.strip(scratch, vertices, strip, true)
     }
 
+    /// The counts that [`Refiner::inout_strip`] returns, without writing anything: the
+    /// buffers' sizes for this frame (the strip is walked once, as the first of
+    /// `inout_strip`'s two passes). Errors as [`Refiner::count`]'s.
+    ///
+    /// ```
+    /// use relief_core::refine::{preprocess, scratch_len, Criterion, Refiner};
+    /// use relief_core::Heightfield;
+    /// let hf = Heightfield::new(&[0.0f32; 15], 5, 3).unwrap();
+    /// let (mut e, mut r) = ([0.0; 15], [0.0; 15]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(1.0)).unwrap();
+    /// let mut scratch = vec![0; scratch_len(5, 3)];
+    /// let c = rf.inout_strip_counts(&mut scratch).unwrap();
+    /// let (mut v, mut s) = (vec![[0u16; 2]; c.vertices], vec![0u32; c.indices]);
+    /// assert_eq!(rf.inout_strip(&mut scratch, &mut v, &mut s).unwrap(), c);
+    /// ```
+    pub fn inout_strip_counts(&self, scratch: &mut [u64]) -> Result<StripCounts, Error> {
+        self.strip_counts(scratch, false)
+    }
+
+    /// The counts that [`Refiner::soar_strip`] returns, without writing anything (as
+    /// [`Refiner::inout_strip_counts`]).
+    ///
+    /// ```
+    /// use relief_core::refine::{preprocess, scratch_len, Criterion, Refiner};
+    /// use relief_core::Heightfield;
+    /// let hf = Heightfield::new(&[0.0f32; 25], 5, 5).unwrap();
+    /// let (mut e, mut r) = ([0.0; 25], [0.0; 25]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(1.0)).unwrap();
+    /// let mut scratch = vec![0; scratch_len(5, 5)];
+    /// let c = rf.soar_strip_counts(&mut scratch).unwrap();
+    /// let (mut v, mut s) = (vec![[0.0f32; 3]; c.vertices], vec![0u32; c.indices]);
+    /// assert_eq!(rf.soar_strip(&mut scratch, &mut v, &mut s).unwrap(), c);
+    /// assert!(rf.soar_strip(&mut scratch, &mut v, &mut s[1..]).is_err());
+    /// ```
+    pub fn soar_strip_counts(&self, scratch: &mut [u64]) -> Result<StripCounts, Error> {
+        self.strip_counts(scratch, true)
+    }
+
+    fn strip_counts(&self, scratch: &mut [u64], soar: bool) -> Result<StripCounts, Error> {
+        let strict = self.strict_culling();
+        let mut m = marks(scratch, self.g.len())?;
+        m.begin_sparse();
+        let counts = strict.mark_strip(&mut m, soar);
+        m.end_sparse();
+        Ok(counts)
+    }
+
+    /// The first pass of a strip (culling already strict): marks its vertices in `m` (begun
+    /// sparse), numbers them and returns the counts.
+    fn mark_strip(&self, m: &mut Marks<'_>, soar: bool) -> StripCounts {
+        let o = self.order();
+        let pass = Strip::new(self, Mark { m, o }).walk(soar);
+        let (indices, triangles) = (pass.len, pass.tris);
+        StripCounts {
+            vertices: m.prefix_sparse(),
+            indices,
+            triangles,
+        }
+    }
+
     fn strip<P: MeshVertex>(
         &self,
         scratch: &mut [u64],
@@ -452,64 +542,23 @@ impl<T: Terrain> Refiner<'_, '_, T> {
     ) -> Result<StripCounts, Error> {
         self.fits_vertex::<P>()?;
         let strict = self.strict_culling();
-        let square = self.g.is_square();
         let mut m = marks(scratch, self.g.len())?;
         m.begin_sparse();
-        let o = self.order();
-        let mut pass1 = Strip {
-            r: &strict,
-            out: Mark { m: &mut m, o },
-            last: [(-1, -1); 2],
-            len: 0,
-            tris: 0,
-            first: true,
-            left_only: false,
-            levels: self.g.levels(),
-            parity: false,
-        };
-        if !square {
-            pass1.run_domain(soar);
-        } else if soar {
-            pass1.run_soar();
-        } else {
-            pass1.run();
-        }
-        let (len, tris) = (pass1.len, pass1.tris);
-        let counts = StripCounts {
-            vertices: m.prefix_sparse(),
-            indices: len,
-            triangles: tris,
-        };
+        let counts = strict.mark_strip(&mut m, soar);
         if counts.vertices > vertices.len() || counts.indices > strip.len() {
             m.end_sparse();
         }
         need(counts.vertices, vertices.len())?;
         need(counts.indices, strip.len())?;
         self.write_vertices_in(m.bits, m.touched(), vertices);
-        let mut pass2 = Strip {
-            r: &strict,
-            out: Write {
-                bits: m.bits,
-                prefix: m.prefix,
-                o,
-                out: strip,
-                n: 0,
-            },
-            last: [(-1, -1); 2],
-            len: 0,
-            tris: 0,
-            first: true,
-            left_only: false,
-            levels: self.g.levels(),
-            parity: false,
+        let out = Write {
+            bits: m.bits,
+            prefix: m.prefix,
+            o: self.order(),
+            out: strip,
+            n: 0,
         };
-        if !square {
-            pass2.run_domain(soar);
-        } else if soar {
-            pass2.run_soar();
-        } else {
-            pass2.run();
-        }
+        Strip::new(&strict, out).walk(soar);
         m.end_sparse();
         Ok(counts)
     }

@@ -250,8 +250,14 @@ fn strip_draws_the_list_mesh(n: u32, nh: u32, seed: u64, e: f32, soar: bool) {
     let r = Refiner::new(&hi, &hf, Criterion::MaxError(e)).unwrap();
     let (v, st, c) = strip(&r, soar);
     assert!(c.indices <= strip_bound(n, nh), "{n}x{nh}: {c:?}");
-    // With grid coordinates: the same strip, each vertex's column and row.
     let mut sc = vec![0; scratch_len(n, nh)];
+    let counted = if soar {
+        r.soar_strip_counts(&mut sc)
+    } else {
+        r.inout_strip_counts(&mut sc)
+    };
+    assert_eq!(counted.unwrap(), c);
+    // With grid coordinates: the same strip, each vertex's column and row.
     let mut g = vec![[0u16; 2]; (n * nh) as usize];
     let mut st2 = vec![0; strip_bound(n, nh)];
     let c2 = if soar {
