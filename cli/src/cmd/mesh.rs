@@ -426,6 +426,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
                 "indices": s.indices,
                 "triangles": s.triangles,
                 "indices_per_triangle": s.indices_per_triangle(),
+                "tested": s.tested,
             })
         };
         let strip_json = stats(strip);

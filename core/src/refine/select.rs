@@ -231,7 +231,7 @@ pub struct FrameCounts {
 /// Sizes of one frame's triangle strip.
 ///
 /// ```
-/// let c = relief_core::refine::StripCounts { vertices: 4, indices: 4, triangles: 2 };
+/// let c = relief_core::refine::StripCounts { vertices: 4, indices: 4, triangles: 2, tested: 5 };
 /// assert_eq!(c.indices_per_triangle(), 2.0);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -242,6 +242,11 @@ pub struct StripCounts {
     pub indices: usize,
     /// Non-degenerate triangles the strip draws.
     pub triangles: usize,
+    /// Vertex decisions the strip's walk made (error test, and the frustum where the view
+    /// culls), a vertex reached from both of its parents counted twice: the work that seed
+    /// 004's in/out-edge strip saves over SOAR's by never testing a vertex that cannot be
+    /// active.
+    pub tested: usize,
 }
 
 impl StripCounts {
@@ -249,7 +254,7 @@ impl StripCounts {
     /// the in/out-edge strip).
     ///
     /// ```
-    /// let c = relief_core::refine::StripCounts { vertices: 9, indices: 10, triangles: 8 };
+    /// let c = relief_core::refine::StripCounts { vertices: 9, indices: 10, triangles: 8, tested: 9 };
     /// assert_eq!(c.indices_per_triangle(), 1.25);
     /// ```
     #[must_use]

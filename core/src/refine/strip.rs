@@ -70,6 +70,8 @@ struct Strip<'r, 'h, 't, T: Terrain, O: Out> {
     left_only: bool,
     levels: u32,
     parity: bool,
+    /// Decisions made ([`StripCounts::tested`]).
+    tested: usize,
 }
 
 impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
@@ -85,6 +87,7 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
             left_only: false,
             levels: r.g.levels(),
             parity: false,
+            tested: 0,
         }
     }
 
@@ -182,10 +185,11 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
 
     /// Whether vertex `v` at `level` is active; updates the plane mask.
     #[inline(always)]
-    fn active(&self, v: P, level: u32, planes: &mut u8) -> bool {
+    fn active(&mut self, v: P, level: u32, planes: &mut u8) -> bool {
         if level >= self.levels {
             return false;
         }
+        self.tested += 1;
         match self.r.decide(v, *planes, level) {
             Decision::Split(p) => {
                 *planes = p;
@@ -525,11 +529,12 @@ impl<T: Terrain> Refiner<'_, '_, T> {
     fn mark_strip(&self, m: &mut Marks<'_>, soar: bool) -> StripCounts {
         let o = self.order();
         let pass = Strip::new(self, Mark { m, o }).walk(soar);
-        let (indices, triangles) = (pass.len, pass.tris);
+        let (indices, triangles, tested) = (pass.len, pass.tris, pass.tested);
         StripCounts {
             vertices: m.prefix_sparse(),
             indices,
             triangles,
+            tested,
         }
     }
 

@@ -228,6 +228,37 @@ fn strips_draw_the_list_mesh(soar: bool) {
     }
 }
 
+/// Seed 004's claim for its strip (chapter 5.1): the in/out-edge strip never tests a vertex
+/// that cannot be active, so it makes far fewer decisions than SOAR's strip for the same mesh.
+#[test]
+fn inout_strip_tests_fewer_vertices_than_soars() {
+    for (w, h, e) in [
+        (129u32, 129u32, 10.0f32),
+        (129, 129, 2.0),
+        (100, 37, 5.0),
+        (65, 200, 20.0),
+    ] {
+        let s = grid(w, h, 21, 100.0);
+        let hf = Heightfield::new(&s, w, h).unwrap();
+        let mut er = vec![0u16; (w * h) as usize];
+        let hi = preprocess_compact(&hf, &mut er).unwrap();
+        let r = Refiner::new(&hi, &hf, Criterion::MaxError(e)).unwrap();
+        let mut sc = vec![0; scratch_len(w, h)];
+        let inout = r.inout_strip_counts(&mut sc).unwrap();
+        let soar = r.soar_strip_counts(&mut sc).unwrap();
+        std::println!(
+            "{w}x{h} E={e}: tested {} (in/out) vs {} (SOAR)",
+            inout.tested,
+            soar.tested
+        );
+        assert!(inout.tested > 0);
+        assert!(
+            3 * inout.tested <= 2 * soar.tested,
+            "{w}x{h} E={e}: {inout:?} vs {soar:?}"
+        );
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(96))]
     /// Both strips draw the list's mesh on grids of any size, within [`strip_bound`].
