@@ -423,6 +423,12 @@ pub unsafe extern "C" fn pc_refine(
         acc += r
             .morph(view_mut(scratch, scratch_len), view_mut(morph, morph_len))
             .unwrap_or(0) as f64;
+        acc += r
+            .inout_strip_morph(view_mut(scratch, scratch_len), view_mut(morph, morph_len))
+            .unwrap_or(0) as f64;
+        acc += r
+            .soar_strip_morph(view_mut(scratch, scratch_len), view_mut(morph, morph_len))
+            .unwrap_or(0) as f64;
     }
     // 8-byte records in both layouts (pack_records and the record decision path).
     for layout in [RecordLayout::Linear, RecordLayout::Interleaved] {

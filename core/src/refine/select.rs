@@ -1151,11 +1151,27 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             self.release(scratch, sel);
         }
         need(c.vertices, out.len())?;
+        let k = match marks(scratch, self.g.len()) {
+            Ok(m) => self.write_morph(m.bits, m.selected_words(sel.sparse), out),
+            Err(_) => 0,
+        };
+        self.release(scratch, sel);
+        Ok(k)
+    }
+
+    /// Writes the geomorph data of the vertices marked in `bits` (in the marked `words`,
+    /// increasing) into `out`, in vertex order, while there is room; returns their number.
+    pub(crate) fn write_morph(
+        &self,
+        bits: &[u64],
+        words: impl Iterator<Item = usize>,
+        out: &mut [MorphVertex],
+    ) -> usize {
         let o = self.order();
         let s = self.h.scale();
         let mut k = 0usize;
-        let mut visit = |wi: usize, word: u64| {
-            let mut b = word;
+        for wi in words {
+            let mut b = bits.get(wi).copied().unwrap_or(0);
             while b != 0 {
                 let i = wi * 64 + b.trailing_zeros() as usize;
                 b &= b - 1;
@@ -1171,14 +1187,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                 }
                 k += 1;
             }
-        };
-        if let Ok(m) = marks(scratch, self.g.len()) {
-            for wi in m.selected_words(sel.sparse) {
-                visit(wi, m.bits.get(wi).copied().unwrap_or(0));
-            }
         }
-        self.release(scratch, sel);
-        Ok(k)
+        k
     }
 
     fn morph_of(&self, x: u32, y: u32, z: f32) -> (f32, f32) {

@@ -11,7 +11,9 @@
 //! inactive: its triangles are drawn coarse (outside the view), as in SOAR.
 
 use super::grid::Edge;
-use super::select::{marks, need, rank, BitOrder, Decision, Marks, MeshVertex, Refiner};
+use super::select::{
+    marks, need, rank, BitOrder, Decision, Marks, MeshVertex, MorphVertex, Refiner,
+};
 use super::StripCounts;
 use crate::{Error, Terrain};
 
@@ -513,6 +515,78 @@ impl<T: Terrain> Refiner<'_, '_, T> {
     /// ```
     pub fn soar_strip_counts(&self, scratch: &mut [u64]) -> Result<StripCounts, Error> {
         self.strip_counts(scratch, true)
+    }
+
+    /// Geomorph data for the vertices of [`Refiner::inout_strip`], in the strip's vertex
+    /// order (the same data [`Refiner::morph`] gives a vertex of the list: a vertex's morph
+    /// depends on the vertex alone, so the strip's shared vertices move alike). `out` at
+    /// least the strip's vertex count ([`Error::BufferTooSmall`]); returns that count.
+    ///
+    /// ```
+    /// use relief_core::refine::{preprocess, scratch_len, Criterion, MorphVertex, Refiner, View};
+    /// use relief_core::{Camera, Heightfield};
+    /// use glam::Vec3;
+    /// let s: Vec<f32> = (0..63).map(|i| ((i * 37) % 11) as f32).collect();
+    /// let hf = Heightfield::new(&s, 9, 7).unwrap();
+    /// let (mut e, mut r) = (vec![0.0; 63], vec![0.0; 63]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let cam = Camera::new(Vec3::new(-5.0, -5.0, 20.0), Vec3::new(4.0, 4.0, 0.0), 60.0, 200, 200).unwrap();
+    /// let view = View::new(&cam, 4.0).unwrap().with_geomorph(Some(2.0));
+    /// let rf = Refiner::new(&h, &hf, Criterion::View(view)).unwrap();
+    /// let mut scratch = vec![0; scratch_len(9, 7)];
+    /// let c = rf.inout_strip_counts(&mut scratch).unwrap();
+    /// let mut out = vec![MorphVertex::default(); c.vertices];
+    /// assert_eq!(rf.inout_strip_morph(&mut scratch, &mut out).unwrap(), c.vertices);
+    /// assert!(out.iter().all(|v| (0.0..=1.0).contains(&v.morph)));
+    /// ```
+    pub fn inout_strip_morph(
+        &self,
+        scratch: &mut [u64],
+        out: &mut [MorphVertex],
+    ) -> Result<usize, Error> {
+        self.strip_morph(scratch, out, false)
+    }
+
+    /// Geomorph data for the vertices of [`Refiner::soar_strip`], in its vertex order (as
+    /// [`Refiner::inout_strip_morph`]).
+    ///
+    /// ```
+    /// use relief_core::refine::{preprocess, scratch_len, Criterion, MorphVertex, Refiner};
+    /// use relief_core::Heightfield;
+    /// let hf = Heightfield::new(&[0.0f32; 25], 5, 5).unwrap();
+    /// let (mut e, mut r) = ([0.0; 25], [0.0; 25]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(1.0)).unwrap();
+    /// let mut out = vec![MorphVertex::default(); 25];
+    /// let n = rf.soar_strip_morph(&mut vec![0; scratch_len(5, 5)], &mut out).unwrap();
+    /// assert!(out[..n].iter().all(|v| v.morph == 1.0)); // view-independent: no morph
+    /// assert!(rf.soar_strip_morph(&mut vec![0; scratch_len(5, 5)], &mut out[..n - 1]).is_err());
+    /// ```
+    pub fn soar_strip_morph(
+        &self,
+        scratch: &mut [u64],
+        out: &mut [MorphVertex],
+    ) -> Result<usize, Error> {
+        self.strip_morph(scratch, out, true)
+    }
+
+    fn strip_morph(
+        &self,
+        scratch: &mut [u64],
+        out: &mut [MorphVertex],
+        soar: bool,
+    ) -> Result<usize, Error> {
+        let strict = self.strict_culling();
+        let mut m = marks(scratch, self.g.len())?;
+        m.begin_sparse();
+        let counts = strict.mark_strip(&mut m, soar);
+        if counts.vertices > out.len() {
+            m.end_sparse();
+        }
+        need(counts.vertices, out.len())?;
+        let n = self.write_morph(m.bits, m.touched(), out);
+        m.end_sparse();
+        Ok(n)
     }
 
     fn strip_counts(&self, scratch: &mut [u64], soar: bool) -> Result<StripCounts, Error> {

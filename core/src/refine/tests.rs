@@ -228,6 +228,84 @@ fn strips_draw_the_list_mesh(soar: bool) {
     }
 }
 
+/// The strips' geomorph data: one entry per strip vertex, at its position, and the same data
+/// as the list's morph for a vertex both meshes have (all of them view-independently off the
+/// square, where both strips draw the list's mesh).
+#[test]
+fn strip_morph_follows_the_strip_vertices_and_the_lists_morph() {
+    for (w, h) in [(65u32, 49u32), (65, 65), (40, 17)] {
+        let s = grid(w, h, 31, 60.0);
+        let hf =
+            Heightfield::with_scale(&s, w, h, Scale::default().with_spacing(10.0, 10.0)).unwrap();
+        let n = hierarchy_len(w, h);
+        let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+        let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+        let cam = Camera::new(
+            Vec3::new(-50.0, -50.0, 150.0),
+            Vec3::new(320.0, 240.0, 0.0),
+            60.0,
+            320,
+            240,
+        )
+        .unwrap();
+        let view = View::new(&cam, 2.0).unwrap().with_geomorph(Some(3.0));
+        for c in [Criterion::MaxError(5.0), Criterion::View(view)] {
+            let r = Refiner::new(&full, &hf, c).unwrap();
+            let mut sc = vec![0; scratch_len(w, h)];
+            let mut list_morph = vec![MorphVertex::default(); n];
+            let ln = r.morph(&mut sc, &mut list_morph).unwrap();
+            let by_position: std::collections::HashMap<[u32; 3], MorphVertex> = list_morph[..ln]
+                .iter()
+                .map(|m| (m.position.map(f32::to_bits), *m))
+                .collect();
+            let mut mid_morph = 0;
+            for soar in [false, true] {
+                let (v, _, counts) = strip(&r, soar);
+                let mut out = vec![MorphVertex::default(); counts.vertices];
+                let morph = |sc: &mut [u64], out: &mut [MorphVertex]| {
+                    if soar {
+                        r.soar_strip_morph(sc, out)
+                    } else {
+                        r.inout_strip_morph(sc, out)
+                    }
+                };
+                assert_eq!(morph(&mut sc, &mut out).unwrap(), counts.vertices);
+                // One element short: an error, and the scratch is left clean for the next call.
+                assert!(morph(&mut sc, &mut out[..counts.vertices - 1]).is_err());
+                let mut shared = 0;
+                for (m, p) in out.iter().zip(&v) {
+                    assert_eq!(&m.position, p);
+                    assert!((0.0..=1.0).contains(&m.morph));
+                    if m.morph > 0.0 && m.morph < 1.0 {
+                        mid_morph += 1;
+                    }
+                    if let Some(l) = by_position.get(&m.position.map(f32::to_bits)) {
+                        assert_eq!(l, m);
+                        shared += 1;
+                    }
+                }
+                let square = w == h;
+                if matches!(c, Criterion::MaxError(_)) && !square {
+                    assert_eq!(shared, ln);
+                    assert_eq!(counts.vertices, ln);
+                }
+                assert!(
+                    shared > counts.vertices / 2,
+                    "{w}x{h}: {shared} of {}",
+                    counts.vertices
+                );
+            }
+            std::println!("{w}x{h}: {mid_morph} strip vertices in mid-morph");
+            if matches!(c, Criterion::View(_)) {
+                assert!(
+                    mid_morph > 0,
+                    "{w}x{h}: no vertex in mid-morph, the test shows nothing"
+                );
+            }
+        }
+    }
+}
+
 /// Seed 004's claim for its strip (chapter 5.1): the in/out-edge strip never tests a vertex
 /// that cannot be active, so it makes far fewer decisions than SOAR's strip for the same mesh.
 #[test]
