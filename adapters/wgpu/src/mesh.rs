@@ -536,10 +536,12 @@ impl MeshPass {
         )
     }
 
-    /// Uploads geomorphing vertices ([`relief_core::refine::Refiner::morph`], in the vertex order
-    /// of [`relief_core::refine::Refiner::triangles`]) with a triangle list (`strip = false`) or
-    /// strip: the vertex shader draws each at `base_z + morph (z - base_z)`. Errors as
-    /// [`MeshPass::upload`].
+    /// Uploads geomorphing vertices with a triangle list (`strip = false`:
+    /// [`relief_core::refine::Refiner::morph`], in the vertex order of
+    /// [`relief_core::refine::Refiner::triangles`]) or a strip
+    /// ([`relief_core::refine::Refiner::inout_strip_morph`] or `soar_strip_morph`, in the
+    /// strip's vertex order): the vertex shader draws each at `base_z + morph (z - base_z)`.
+    /// Errors as [`MeshPass::upload`].
     pub fn upload_morph(
         &mut self,
         device: &wgpu::Device,

@@ -999,6 +999,46 @@ fn mesh_pass_draws_strips_geomorphs_and_grid_triangles_like_the_cpu() {
     let (same, _) = mesh_agreement(g, &mesh, &cam, &unmorphed, &idx);
     assert!(same < 0.999, "geomorphing changed nothing ({same})");
 
+    // The same frame as the in/out-edge strip with its own morph data (the strip's vertex
+    // order): the GPU draws the strip morphed as the CPU morphs it.
+    let sc = rf.inout_strip_counts(&mut scratch).unwrap();
+    let mut smorph = vec![MorphVertex::default(); sc.vertices];
+    assert_eq!(
+        rf.inout_strip_morph(&mut scratch, &mut smorph).unwrap(),
+        sc.vertices
+    );
+    let mut sverts = vec![[0.0f32; 3]; sc.vertices];
+    let mut sidx = vec![0u32; sc.indices];
+    assert_eq!(
+        rf.inout_strip(&mut scratch, &mut sverts, &mut sidx)
+            .unwrap(),
+        sc
+    );
+    let smorphed: Vec<[f32; 3]> = smorph
+        .iter()
+        .map(|m| {
+            [
+                m.position[0],
+                m.position[1],
+                m.base_z + m.morph * (m.position[2] - m.base_z),
+            ]
+        })
+        .collect();
+    let stris: Vec<u32> = sidx
+        .windows(3)
+        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        .flatten()
+        .copied()
+        .collect();
+    mesh.upload_morph(&g.device, &g.queue, &smorph, &sidx, true)
+        .unwrap();
+    let (frac, bad) = mesh_agreement(g, &mesh, &cam, &smorphed, &stris);
+    eprintln!(
+        "geomorphed strip ({} triangles): depth agreement {frac:.6} ({bad})",
+        sc.triangles
+    );
+    assert!(frac >= 0.999, "geomorphed strip: {frac} ({bad})");
+
     // Grid triangles: every sample uploaded once as a vertex, each frame only its indices.
     let mut on_grid = MeshPass::new(&g.device);
     on_grid
