@@ -4,15 +4,16 @@
 //! crack-free, with culling they have no flipped or overlapping triangles; a buffer one element
 //! too small is an error, never a truncated mesh; `triangles_uninit` writes what `triangles`
 //! writes, and grid-coordinate vertices give the same triangles; both triangle strips are
-//! crack-free with or without culling (culled triangles drawn coarse), within `strip_bound`, and
-//! draw the list's triangles view-independently off the `(2^k+1)^2` square.
+//! crack-free with or without culling (culled triangles drawn coarse), within `strip_bound`,
+//! counted alike by their count functions, with one geomorph entry per vertex, and draw the
+//! list's triangles view-independently off the `(2^k+1)^2` square.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use relief_core::glam::Vec3;
 use relief_core::refine::{
     coverage_len, preprocess, scratch_len, strip_bound, triangle_bound, vertex_bound,
-    vertical_error, Criterion, Refiner, View,
+    vertical_error, Criterion, MorphVertex, Refiner, View,
 };
 use relief_core::{Camera, Heightfield, Scale, Terrain};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
@@ -35,6 +36,20 @@ fn strips<T: Terrain>(r: &Refiner<'_, '_, T>, w: u32, h: u32, opts: &CheckOption
             r.inout_strip(&mut scratch, &mut v, &mut s)
         }
         .unwrap();
+        // The counts alone, and the geomorph data: one entry per strip vertex, at its place.
+        let mut morph = vec![MorphVertex::default(); c.vertices];
+        let (counted, morphed) = if soar {
+            let k = r.soar_strip_counts(&mut scratch).unwrap();
+            (k, r.soar_strip_morph(&mut scratch, &mut morph).unwrap())
+        } else {
+            let k = r.inout_strip_counts(&mut scratch).unwrap();
+            (k, r.inout_strip_morph(&mut scratch, &mut morph).unwrap())
+        };
+        assert_eq!(counted, c);
+        assert_eq!(morphed, c.vertices);
+        for (m, p) in morph.iter().zip(&v) {
+            assert_eq!(&m.position, p);
+        }
         let s = &s[..c.indices];
         let t: Vec<[u32; 3]> = (0..s.len().saturating_sub(2))
             .filter(|&i| s[i] != s[i + 1] && s[i + 1] != s[i + 2] && s[i] != s[i + 2])
