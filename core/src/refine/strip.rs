@@ -334,7 +334,8 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
     /// ends at `p`).
     fn restart(&mut self, p: P, odd: bool) {
         if self.len > 0 && self.last[1] != p {
-            self.turn_corner_last();
+            let v = self.last[1];
+            self.append(v);
         }
         // At most three appends: `p`, `p` and one more to fix the position's parity.
         for _ in 0..3 {
@@ -348,16 +349,10 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
         self.left_only = false;
     }
 
-    /// Repeats the last index (a degenerate triangle; the strip's side is kept).
-    fn turn_corner_last(&mut self) {
-        let v = self.last[1];
-        self.append(v);
-    }
-
     /// A grid that does not fill its square: the triangles across the domain's edge split,
     /// each triangle `(l, r, a)` inside (counter-clockwise, its split vertex `mid(l, r)` at
-    /// `level`) gets its own piece of strip from `l` to `r` ([`Self::restart`]), the in/out-edge
-    /// strip's (`soar == false`) or SOAR's. SOAR's parity: a vertex at `level` (the square's
+    /// `level`) gets its own piece of strip from one end of its hypotenuse to the other
+    /// ([`Self::restart`]), the in/out-edge strip's (`soar == false`, from `l`) or SOAR's. SOAR's parity: a vertex at `level` (the square's
     /// centre is 0, the corners -1) sits at odd positions when `levels - level` is odd (the
     /// number of levels is even).
     fn run_domain(&mut self, soar: bool) {
