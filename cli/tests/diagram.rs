@@ -89,6 +89,40 @@ fn refine_matches_the_library() {
 }
 
 #[test]
+fn strip_matches_the_library() {
+    use relief_skia::strip::{strip, strip_state, StripKind};
+    let dir = tempfile::tempdir().unwrap();
+    let dem = write_dem(dir.path());
+    let s = samples();
+    let hf = Heightfield::new(&s, W, W).unwrap();
+    let (mut e, mut r) = (vec![0.0; (W * W) as usize], vec![0.0; (W * W) as usize]);
+    let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    let input = RefineInput::new(&hf, &h, Criterion::MaxError(0.5));
+    let base = hillshade(&hf, &HillshadeOptions::default()).unwrap();
+    for (kind, flag) in [(StripKind::InOut, None), (StripKind::Soar, Some("--soar"))] {
+        let out = dir.path().join("s.png");
+        let out_s = out.to_str().unwrap();
+        let mut args = base_args("strip", &dem, out_s);
+        args.extend(["--max-error", "0.5", "--json"]);
+        args.extend(flag);
+        let o = relief(&args);
+        ok(&o);
+        let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(json["diagram"], "strip");
+        let st = strip_state(&input, kind).unwrap();
+        assert_eq!(json["triangles"], st.triangles.len());
+        assert_eq!(json["indices"], st.counts.indices);
+        assert_eq!(json["tested"], st.counts.tested);
+        assert_eq!(json["joins"], 0); // a square grid: one piece
+        let opts = DiagramOptions::default()
+            .with_max_size(200)
+            .with_background(Some(&base));
+        let expected = strip(&input, kind, &opts).unwrap();
+        assert_eq!(Pixmap::load_png(&out).unwrap(), expected);
+    }
+}
+
+#[test]
 fn dda_matches_the_library() {
     let dir = tempfile::tempdir().unwrap();
     let dem = write_dem(dir.path());

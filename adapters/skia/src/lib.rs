@@ -13,6 +13,7 @@
 //! | adaptive cells and influence circles | [`rbf::rbf`] | Cornel et al. 2022 (seed 002), figure 2 |
 //! | frustum, hull, splits, snapped cascades | [`rbf::cascades`] | seed 002, figure 1a |
 //! | refined mesh by level, circles, frustum, culling | [`refine::refine`] | Balogh 2003 (seed 004), figures 5-11 |
+//! | triangle strip in its order, joins between pieces | [`strip::strip`] | Balogh 2003 (seed 004), chapter 5.1; Lindstrom & Pascucci 2001 |
 //! | silhouette map and partitioning-tree levels | [`silhouette::silhouette`] | Sakalauskas (seed 000), figure 9 (c)-(e) |
 //!
 //! Colours are the Okabe-Ito palette ([`style`]), readable with the common colour-vision
@@ -48,6 +49,7 @@ mod overlay;
 pub mod rbf;
 pub mod refine;
 pub mod silhouette;
+pub mod strip;
 pub mod style;
 mod text;
 

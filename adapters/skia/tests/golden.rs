@@ -471,6 +471,42 @@ fn golden_refine_view_culling_lazy() {
 }
 
 #[test]
+fn golden_strips_square_and_not() {
+    use relief_skia::strip::{strip, strip_state, StripKind};
+    let s = samples();
+    // The square grid and a cut of it that is not (2^k+1)^2.
+    let cut: Vec<f32> = (0..N - 20)
+        .flat_map(|y| {
+            s[(y * N) as usize..(y * N + N - 9) as usize]
+                .iter()
+                .copied()
+        })
+        .collect();
+    for (name, samples, w, h) in [
+        ("strip_inout_square", &s, N, N),
+        ("strip_inout_cut", &cut, N - 9, N - 20),
+    ] {
+        let hf = Heightfield::new(samples, w, h).unwrap();
+        let n = (w * h) as usize;
+        let (mut e, mut r) = (vec![0.0; n], vec![0.0; n]);
+        let hi = preprocess(&hf, &mut e, &mut r).unwrap();
+        let input = RefineInput::new(&hf, &hi, Criterion::MaxError(1.0));
+        let st = strip_state(&input, StripKind::InOut).unwrap();
+        assert_eq!(st.triangles.len(), st.counts.triangles);
+        // One piece on the square; pieces joined off it.
+        assert_eq!(
+            st.joins.is_empty(),
+            w == N,
+            "{name}: {} joins",
+            st.joins.len()
+        );
+        let soar = strip_state(&input, StripKind::Soar).unwrap();
+        assert!(soar.counts.tested > st.counts.tested);
+        check(name, &strip(&input, StripKind::InOut, &opts()).unwrap());
+    }
+}
+
+#[test]
 fn a_different_threshold_draws_a_different_mesh() {
     let s = samples();
     let hf = Heightfield::new(&s, N, N).unwrap();

@@ -1,4 +1,4 @@
-//! `relief diagram refine|dda|silhouette|rbf|cascades`: debug diagrams of what the core's
+//! `relief diagram refine|strip|dda|silhouette|rbf|cascades`: debug diagrams of what the core's
 //! algorithms did on a DEM, drawn by `relief-skia` over a hillshade (PNG).
 
 use crate::args::DemArgs;
@@ -14,6 +14,7 @@ use relief_core::{Camera, Heightfield, Scale, Terrain};
 use relief_skia::dda::DdaSpec;
 use relief_skia::rbf::CascadeView;
 use relief_skia::refine::{refine_state, RefineInput};
+use relief_skia::strip::{strip_state, StripKind};
 use relief_skia::{hillshade, DiagramOptions, HillshadeOptions};
 use std::path::PathBuf;
 
@@ -22,6 +23,9 @@ use std::path::PathBuf;
 pub enum Kind {
     /// SOAR mesh by level, active vertices, bounding circles, frustum, culled and lazily accepted.
     Refine,
+    /// A SOAR triangle strip in its order (in/out-edge, or SOAR's with --soar), joins between
+    /// its pieces.
+    Strip,
     /// Cell DDA vs run-length DDA of one ray (grid units), short and long runs with intercepts.
     Dda,
     /// Silhouette map and silhouette partitioning-tree levels for a camera.
@@ -71,6 +75,9 @@ pub struct DiagramArgs {
     /// refine: draw the bounding circles of the active vertices at this level.
     #[arg(long, value_name = "L")]
     circle_level: Option<u32>,
+    /// strip: SOAR's original strip instead of seed 004's in/out-edge strip.
+    #[arg(long)]
+    soar: bool,
     /// dda: ray start X,Y in grid units (cell (cx, cy) is [cx, cx+1] x [cy, cy+1]).
     #[arg(long, value_name = "X,Y", allow_hyphen_values = true, value_parser = parse_vec2)]
     ray_start: Option<DVec2>,
@@ -196,7 +203,7 @@ pub fn run(a: &DiagramArgs) -> CliResult {
         .with_background(base.as_ref());
     let mut stats = serde_json::Map::new();
     let picture = match a.kind {
-        Kind::Refine => {
+        Kind::Refine | Kind::Strip => {
             let n = hierarchy_len(w, h);
             let (mut errors, mut radii) = (vec![0.0f32; n], vec![0.0f32; n]);
             let hier = preprocess(&hf, &mut errors, &mut radii)?;
@@ -223,11 +230,26 @@ pub fn run(a: &DiagramArgs) -> CliResult {
             let input = RefineInput::new(&hf, &hier, criterion)
                 .with_camera(cam.as_ref())
                 .with_circle_level(a.circle_level);
-            let st = refine_state(&input)?;
-            stats.insert("vertices".into(), st.vertices.len().into());
-            stats.insert("triangles".into(), st.triangles.len().into());
-            stats.insert("lazy_accepted".into(), st.lazy_accepted.len().into());
-            relief_skia::refine::refine(&input, &opts)?
+            if a.kind == Kind::Strip {
+                let kind = if a.soar {
+                    StripKind::Soar
+                } else {
+                    StripKind::InOut
+                };
+                let st = strip_state(&input, kind)?;
+                stats.insert("vertices".into(), st.vertices.len().into());
+                stats.insert("triangles".into(), st.triangles.len().into());
+                stats.insert("indices".into(), st.counts.indices.into());
+                stats.insert("tested".into(), st.counts.tested.into());
+                stats.insert("joins".into(), st.joins.len().into());
+                relief_skia::strip::strip(&input, kind, &opts)?
+            } else {
+                let st = refine_state(&input)?;
+                stats.insert("vertices".into(), st.vertices.len().into());
+                stats.insert("triangles".into(), st.triangles.len().into());
+                stats.insert("lazy_accepted".into(), st.lazy_accepted.len().into());
+                relief_skia::refine::refine(&input, &opts)?
+            }
         }
         Kind::Dda => {
             let (Some(start), Some(dir)) = (a.ray_start, a.ray_dir) else {

@@ -352,7 +352,7 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
     /// A grid that does not fill its square: the triangles across the domain's edge split,
     /// each triangle `(l, r, a)` inside (counter-clockwise, its split vertex `mid(l, r)` at
     /// `level`) gets its own piece of strip from one end of its hypotenuse to the other
-    /// ([`Self::restart`]), the in/out-edge strip's (`soar == false`, from `l`) or SOAR's. SOAR's parity: a vertex at `level` (the square's
+    /// ([`Self::restart`]), the in/out-edge strip's (`soar == false`) or SOAR's. SOAR's parity: a vertex at `level` (the square's
     /// centre is 0, the corners -1) sits at odd positions when `levels - level` is odd (the
     /// number of levels is even).
     fn run_domain(&mut self, soar: bool) {
@@ -368,12 +368,14 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
                 return true;
             };
             let m = mid(l, r);
+            // Both strips' recursions enter a triangle `(p, q, i)` at `p`, and it turns
+            // counter-clockwise when its apex `i` has an even level, as the base triangles do,
+            // and clockwise when odd: entered at `l` or at `r`. In the order of the walk, a
+            // piece then starts where the one before it ended, when the two touch.
+            let apex = level.saturating_sub(1);
+            let even = apex % 2 == 0;
+            let (p, q) = if even { (l, r) } else { (r, l) };
             if soar {
-                // SOAR's triangle `(p, q, i)` entered at `p` turns counter-clockwise when its
-                // apex `i` has an even level, as the base triangles do, and clockwise when odd:
-                // entered at `l` or at `r`.
-                let apex = level.saturating_sub(1);
-                let (p, q) = if apex % 2 == 0 { (l, r) } else { (r, l) };
                 let (pp, pq) = (parity(p), parity(q));
                 self.restart(p, pp);
                 self.parity = pp;
@@ -381,15 +383,16 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
                 self.soar_submesh(a, m, p, apex, mask, true);
                 self.append_parity(q, pq);
             } else {
-                self.restart(l, true);
+                // As the whole strip starts at an odd position for its counter-clockwise base
+                // triangles, a clockwise piece starts at an even one.
+                self.restart(p, even);
                 let mut pm = mask;
                 if self.active(m, level, &mut pm) {
-                    self.refine(a, m, l, level, SIDE, SIDE, pm);
-                    self.append(r);
+                    self.refine(a, m, p, level, SIDE, SIDE, pm);
                 } else {
                     self.append(a);
-                    self.append(r);
                 }
+                self.append(q);
             }
             true
         });
