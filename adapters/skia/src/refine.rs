@@ -148,6 +148,23 @@ fn mesh<T: Terrain>(h: &Hierarchy<'_>, t: &T, criterion: Criterion) -> Result<Me
     Ok((verts, tris))
 }
 
+/// Each triangle's corners in sample coordinates (world x, y over the spacing).
+pub(crate) fn sample_polygons(
+    vertices: &[[f32; 3]],
+    triangles: &[[u32; 3]],
+    s: &Scale,
+) -> Vec<Vec<[f32; 2]>> {
+    let to_s = |v: &[f32; 3]| [v[0] / s.dx, v[1] / s.dy];
+    triangles
+        .iter()
+        .map(|t| {
+            t.iter()
+                .map(|&i| vertices.get(i as usize).map_or([0.0, 0.0], to_s))
+                .collect()
+        })
+        .collect()
+}
+
 fn grid_pos(p: &[f32; 3], s: &Scale) -> [u32; 2] {
     [
         (p[0] / s.dx).round().max(0.0) as u32,
@@ -299,15 +316,7 @@ pub fn refine<T: Terrain>(
         c.background(bg, [-0.5, -0.5], [w + 0.5, h + 0.5]);
     }
     let to_s = |v: &[f32; 3]| [v[0] / s.dx, v[1] / s.dy];
-    let polys: Vec<Vec<[f32; 2]>> = st
-        .triangles
-        .iter()
-        .map(|t| {
-            t.iter()
-                .map(|&i| st.vertices.get(i as usize).map_or([0.0, 0.0], to_s))
-                .collect()
-        })
-        .collect();
+    let polys = sample_polygons(&st.vertices, &st.triangles, &s);
     c.fill_uncovered(&polys, lo, hi, rgba(VERMILLION, 0.45));
     for (poly, &l) in polys.iter().zip(&st.triangle_levels) {
         c.fill_polygon(poly, rgba(viridis(l as f32 / levels), alpha));

@@ -180,16 +180,7 @@ pub fn strip<T: Terrain>(
     if let Some(bg) = opts.background {
         c.background(bg, [-0.5, -0.5], [w + 0.5, h + 0.5]);
     }
-    let to_s = |v: &[f32; 3]| [v[0] / s.dx, v[1] / s.dy];
-    let polys: Vec<Vec<[f32; 2]>> = st
-        .triangles
-        .iter()
-        .map(|t| {
-            t.iter()
-                .map(|&i| st.vertices.get(i as usize).map_or([0.0, 0.0], to_s))
-                .collect()
-        })
-        .collect();
+    let polys = crate::refine::sample_polygons(&st.vertices, &st.triangles, &s);
     let n = polys.len().max(2) - 1;
     for (k, poly) in polys.iter().enumerate() {
         c.fill_polygon(poly, rgba(viridis(k as f32 / n as f32), alpha));
