@@ -161,17 +161,17 @@ pub fn strip<T: Terrain>(
         (rgba(BLACK, 0.8), "order of the triangles"),
         (rgba(VERMILLION, 1.0), "join between pieces"),
     ];
-    let c_ = st.counts;
+    let counts = st.counts;
     let mut c = Canvas::new(
         lo,
         hi,
         false,
         &format!(
             "{name}: {} indices, {} triangles ({:.3} per triangle), {} decisions, {} joins",
-            c_.indices,
-            c_.triangles,
-            c_.indices_per_triangle(),
-            c_.tested,
+            counts.indices,
+            counts.triangles,
+            counts.indices_per_triangle(),
+            counts.tested,
             st.joins.len()
         ),
         &[&row[..]],

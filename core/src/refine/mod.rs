@@ -139,8 +139,8 @@ pub const fn triangle_bound(width: u32, height: u32) -> usize {
 }
 
 /// Most indices a triangle strip can have: `3 * triangle_bound + 8` on a grid that fills its
-/// square, `(2^k+1) x (2^k+1)` (never reached: SOAR's strip needs about 1.6 and the in/out-edge
-/// strip about 1.3 indices per triangle).
+/// square, `(2^k+1) x (2^k+1)` (never reached: both strips need about 1.6 indices per triangle
+/// on real DEMs; seed 004 reports 1.3 for its in/out-edge strip, BENCHMARKS.md).
 ///
 /// On any other grid the strip is made of pieces, one per triangle inside the domain whose
 /// parent crosses the domain's edge, joined by at most 4 indices each, so the bound adds
