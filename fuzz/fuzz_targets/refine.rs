@@ -12,8 +12,8 @@
 use libfuzzer_sys::fuzz_target;
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    coverage_len, preprocess, scratch_len, strip_bound, triangle_bound, vertex_bound,
-    vertical_error, Criterion, MorphVertex, Refiner, View,
+    coverage_len, preprocess, scratch_len, strip_bound, strip_triangles, triangle_bound,
+    vertex_bound, vertical_error, Criterion, MorphVertex, Refiner, View,
 };
 use relief_core::{Camera, Heightfield, Scale, Terrain};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
@@ -51,13 +51,7 @@ fn strips<T: Terrain>(r: &Refiner<'_, '_, T>, w: u32, h: u32, opts: &CheckOption
             assert_eq!(&m.position, p);
         }
         let s = &s[..c.indices];
-        let t: Vec<[u32; 3]> = (0..s.len().saturating_sub(2))
-            .filter(|&i| s[i] != s[i + 1] && s[i + 1] != s[i + 2] && s[i] != s[i + 2])
-            .map(|i| match i % 2 {
-                0 => [s[i], s[i + 1], s[i + 2]],
-                _ => [s[i + 1], s[i], s[i + 2]],
-            })
-            .collect();
+        let t: Vec<[u32; 3]> = strip_triangles(s).collect();
         assert_eq!(t.len(), c.triangles);
         check_mesh(&v[..c.vertices], &t, opts).unwrap();
         counts[k] = c.triangles;

@@ -6,8 +6,8 @@ use proptest::prelude::*;
 use relief_core::glam::Vec3;
 use relief_core::refine::{
     coverage_len, hierarchy_len, pack_records, preprocess, preprocess_compact, preprocess_with,
-    records_len, scratch_len, strip_bound, vertical_error, Criterion, FrameCounts, Hierarchy,
-    PreprocessOptions, RecordLayout, Refiner, UninitBuffers, VertexRecord, View,
+    records_len, scratch_len, strip_bound, strip_triangles, vertical_error, Criterion, FrameCounts,
+    Hierarchy, PreprocessOptions, RecordLayout, Refiner, UninitBuffers, VertexRecord, View,
 };
 use relief_core::{Camera, Error, Heightfield, Scale, Terrain};
 use relief_io::{read_dem, Format, ReadOptions};
@@ -650,13 +650,7 @@ fn strip_mesh<T: Terrain>(r: &Refiner<'_, '_, T>, t: &T, soar: bool) -> Mesh {
     } else {
         r.inout_strip(&mut s, &mut v, &mut st).unwrap()
     };
-    let mut t = vec![];
-    for k in 0..c.indices.saturating_sub(2) {
-        let (a, b, d) = (st[k], st[k + 1], st[k + 2]);
-        if a != b && b != d && a != d {
-            t.push(if k % 2 == 0 { [a, b, d] } else { [b, a, d] });
-        }
-    }
+    let t: Vec<[u32; 3]> = strip_triangles(&st[..c.indices]).collect();
     assert_eq!(t.len(), c.triangles);
     v.truncate(c.vertices);
     Mesh { v, t }

@@ -6,15 +6,14 @@
 //! that is not `(2^k+1)^2`, made of degenerate triangles) are marked.
 //!
 //! Everything drawn comes from the core's strip ([`Refiner::inout_strip`],
-//! [`Refiner::soar_strip`]), decoded here: every three consecutive indices form a triangle,
-//! counter-clockwise on even positions, degenerate ones dropped. Nothing of the refinement is
-//! recomputed.
+//! [`Refiner::soar_strip`]), decoded by [`relief_core::refine::strip_triangles`]. Nothing of
+//! the refinement is recomputed.
 
 use crate::canvas::Canvas;
 use crate::refine::RefineInput;
 use crate::style::{rgba, viridis, BLACK, VERMILLION};
 use crate::{DiagramError, DiagramOptions};
-use relief_core::refine::{scratch_len, StripCounts};
+use relief_core::refine::{scratch_len, strip_triangles, StripCounts};
 use relief_core::{Refiner, Scale, Terrain};
 use tiny_skia::Pixmap;
 
@@ -93,15 +92,7 @@ pub fn strip_state<T: Terrain>(
         StripKind::InOut => r.inout_strip(&mut scratch, &mut vertices, &mut strip)?,
         StripKind::Soar => r.soar_strip(&mut scratch, &mut vertices, &mut strip)?,
     };
-    let triangles: Vec<[u32; 3]> = strip
-        .windows(3)
-        .enumerate()
-        .filter(|(_, t)| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
-        .map(|(k, t)| match k % 2 {
-            0 => [t[0], t[1], t[2]],
-            _ => [t[1], t[0], t[2]],
-        })
-        .collect();
+    let triangles: Vec<[u32; 3]> = strip_triangles(&strip).collect();
     let joins = triangles
         .windows(2)
         .enumerate()

@@ -7,8 +7,8 @@
 use glam::Vec3;
 use relief_core::ray::{MarchOptions, MaxMip, Ray, RayTracer};
 use relief_core::refine::{
-    preprocess, scratch_len, strip_bound, triangle_bound, vertex_bound, Criterion, MorphVertex,
-    Refiner, View,
+    preprocess, scratch_len, strip_bound, strip_triangles, triangle_bound, vertex_bound, Criterion,
+    MorphVertex, Refiner, View,
 };
 use relief_core::{
     normal_map, Camera, Composed, Heightfield, NormalMethod, Scale, Surface, Terrain,
@@ -918,6 +918,20 @@ fn mesh_agreement(
     agreement(&gd, &cd, |i| 1e-3 * f64::from(cd[i]))
 }
 
+/// Where the vertex shader draws each geomorphing vertex: `base_z + morph (z - base_z)`.
+fn morphed_positions(morph: &[MorphVertex]) -> Vec<[f32; 3]> {
+    morph
+        .iter()
+        .map(|m| {
+            [
+                m.position[0],
+                m.position[1],
+                m.base_z + m.morph * (m.position[2] - m.base_z),
+            ]
+        })
+        .collect()
+}
+
 #[test]
 fn mesh_pass_draws_strips_geomorphs_and_grid_triangles_like_the_cpu() {
     let Some(g) = gpu() else { return };
@@ -978,16 +992,7 @@ fn mesh_pass_draws_strips_geomorphs_and_grid_triangles_like_the_cpu() {
         partial > 10,
         "the test needs vertices in mid-morph: {partial}"
     );
-    let morphed: Vec<[f32; 3]> = morph
-        .iter()
-        .map(|m| {
-            [
-                m.position[0],
-                m.position[1],
-                m.base_z + m.morph * (m.position[2] - m.base_z),
-            ]
-        })
-        .collect();
+    let morphed = morphed_positions(&morph);
     let idx: Vec<u32> = tris[..c.triangles].iter().flatten().copied().collect();
     mesh.upload_morph(&g.device, &g.queue, &morph, &idx, false)
         .unwrap();
@@ -1014,22 +1019,8 @@ fn mesh_pass_draws_strips_geomorphs_and_grid_triangles_like_the_cpu() {
             .unwrap(),
         sc
     );
-    let smorphed: Vec<[f32; 3]> = smorph
-        .iter()
-        .map(|m| {
-            [
-                m.position[0],
-                m.position[1],
-                m.base_z + m.morph * (m.position[2] - m.base_z),
-            ]
-        })
-        .collect();
-    let stris: Vec<u32> = sidx
-        .windows(3)
-        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
-        .flatten()
-        .copied()
-        .collect();
+    let smorphed = morphed_positions(&smorph);
+    let stris: Vec<u32> = strip_triangles(&sidx).flatten().collect();
     mesh.upload_morph(&g.device, &g.queue, &smorph, &sidx, true)
         .unwrap();
     let (frac, bad) = mesh_agreement(g, &mesh, &cam, &smorphed, &stris);

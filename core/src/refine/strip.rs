@@ -399,6 +399,24 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
     }
 }
 
+/// The triangles a generalized strip ([`Refiner::inout_strip`], [`Refiner::soar_strip`])
+/// draws, in its order: every three consecutive indices, degenerate triples skipped, those at
+/// odd positions turned round so that all are counter-clockwise seen from +z.
+///
+/// ```
+/// use relief_core::refine::strip_triangles;
+/// let t: Vec<[u32; 3]> = strip_triangles(&[0, 1, 2, 3, 3, 4]).collect();
+/// assert_eq!(t, vec![[0, 1, 2], [2, 1, 3]]);
+/// ```
+pub fn strip_triangles(strip: &[u32]) -> impl Iterator<Item = [u32; 3]> + '_ {
+    strip.windows(3).enumerate().filter_map(|(k, t)| match *t {
+        [a, b, c] if a != b && b != c && a != c => {
+            Some(if k % 2 == 0 { [a, b, c] } else { [b, a, c] })
+        }
+        _ => None,
+    })
+}
+
 impl<T: Terrain> Refiner<'_, '_, T> {
     /// Seed 004's in/out-edge generalized triangle strip (Balogh 2003, chapter 5.1) for a
     /// grid of any size: fills `vertices` (positions or grid coordinates, see
