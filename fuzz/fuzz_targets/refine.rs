@@ -4,7 +4,8 @@
 //! crack-free, with culling they have no flipped or overlapping triangles; a buffer one element
 //! too small is an error, never a truncated mesh; `triangles_uninit` writes what `triangles`
 //! writes, and grid-coordinate vertices give the same triangles; both triangle strips are
-//! crack-free with or without culling (culled triangles drawn coarse), within `strip_bound`,
+//! crack-free with or without culling (culled triangles drawn coarse), within `strip_bound`
+//! (and, on a square grid, within three indices of `strip_fewest_indices`),
 //! counted alike by their count functions, with one geomorph entry per vertex, and draw the
 //! list's triangles view-independently off the `(2^k+1)^2` square.
 #![no_main]
@@ -12,8 +13,8 @@
 use libfuzzer_sys::fuzz_target;
 use relief_core::glam::Vec3;
 use relief_core::refine::{
-    coverage_len, preprocess, scratch_len, strip_bound, strip_triangles, triangle_bound,
-    vertex_bound, vertical_error, Criterion, MorphVertex, Refiner, View,
+    coverage_len, preprocess, scratch_len, strip_bound, strip_fewest_indices, strip_triangles,
+    triangle_bound, vertex_bound, vertical_error, Criterion, MorphVertex, Refiner, View,
 };
 use relief_core::{Camera, Heightfield, Scale, Terrain};
 use relief_tests::mesh_check::{check_mesh, CheckOptions};
@@ -54,6 +55,15 @@ fn strips<T: Terrain>(r: &Refiner<'_, '_, T>, w: u32, h: u32, opts: &CheckOption
         let t: Vec<[u32; 3]> = strip_triangles(s).collect();
         assert_eq!(t.len(), c.triangles);
         check_mesh(&v[..c.vertices], &t, opts).unwrap();
+        // No strip of these triangles in this order is shorter than the fewest; on a square
+        // grid (one piece) the strip is the fewest up to its start.
+        if let Some(fewest) = strip_fewest_indices(s, true) {
+            assert!(fewest <= c.indices);
+            assert!(strip_fewest_indices(s, false).is_some_and(|f| f <= fewest));
+            if w == h && (w - 1).is_power_of_two() {
+                assert!(c.indices <= fewest + 3, "{c:?}, fewest {fewest}");
+            }
+        }
         counts[k] = c.triangles;
     }
     counts

@@ -417,6 +417,10 @@ pub unsafe extern "C" fn pc_refine(
         acc += r
             .inout_strip_counts(view_mut(scratch, scratch_len))
             .map_or(0.0, |c| c.indices as f64);
+        // Any indices at all (the caller's strip buffer as it stands), both ways round.
+        let any: &[u32] = view_mut(strip, strip_len);
+        acc += relief_core::refine::strip_fewest_indices(any, true).unwrap_or(0) as f64;
+        acc += relief_core::refine::strip_fewest_indices(any, false).unwrap_or(0) as f64;
         acc += r
             .soar_strip_counts(view_mut(scratch, scratch_len))
             .map_or(0.0, |c| c.indices as f64);

@@ -78,7 +78,7 @@ pub use scan::{coverage_len, vertical_error, vertical_error_partial, Uncovered};
 pub use select::{
     Criterion, FrameCounts, MeshVertex, MorphVertex, Refiner, StripCounts, UninitBuffers, View,
 };
-pub use strip::strip_triangles;
+pub use strip::{strip_fewest_indices, strip_triangles};
 pub use tile::{
     border_len, export_border, export_border_compact, merge_border, merge_border_compact, renest,
     renest_compact, skirt, skirt_bound, Side,
@@ -141,10 +141,12 @@ pub const fn triangle_bound(width: u32, height: u32) -> usize {
 
 /// Most indices a triangle strip can have: `3 * triangle_bound + 8` on a grid that fills its
 /// square, `(2^k+1) x (2^k+1)` (never reached: both strips need about 1.6 indices per triangle
-/// on real DEMs; seed 004 reports 1.3 for its in/out-edge strip, BENCHMARKS.md).
+/// on real DEMs, the fewest their triangle order allows ([`strip_fewest_indices`]); seed 004
+/// reports 1.3 for its in/out-edge strip, below that fewest, BENCHMARKS.md).
 ///
 /// On any other grid the strip is made of pieces, one per triangle inside the domain whose
-/// parent crosses the domain's edge, joined by at most 4 indices each, so the bound adds
+/// parent crosses the domain's edge, joined by at most 4 indices each (a piece of one
+/// triangle takes at most 6 with its join, no more than 4 + 2), so the bound adds
 /// `4 (6 (width + height - 2 + 2 k) + 2)` for the enclosing square of `2^k` cells: a triangle
 /// across the edge at a level where the square is cut into squares of side `s` crosses the
 /// line `x = width - 1` inside one of the `ceil((height - 1) / s)` squares of one column (or

@@ -7,8 +7,14 @@
 //! a grid of any other size it covers exactly the domain: the triangles across the domain's edge
 //! always split, as in [`Refiner::triangles`], and each triangle inside it gets a strip of its
 //! own, started as the square's strip starts (its entry vertex twice, at the same parity) and
-//! joined to the strip before it by degenerate triangles. A culled vertex is treated as
-//! inactive: its triangles are drawn coarse (outside the view), as in SOAR.
+//! joined to the strip before it by degenerate triangles; a triangle that does not split is
+//! joined by the fewest indices that draw it. A culled vertex is treated as inactive: its
+//! triangles are drawn coarse (outside the view), as in SOAR.
+//!
+//! [`strip_fewest_indices`] measures any strip against the fewest indices its triangle order
+//! allows. On a square grid both strips reach it up to their start (three indices over a
+//! whole mesh, about 1.6 per triangle on real DEMs); seed 004's 1.32 for its strip is below
+//! that fewest, even for strips drawn either way round (about 1.5: BENCHMARKS.md).
 
 use super::grid::Edge;
 use super::select::{
@@ -331,9 +337,10 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
     /// Starts a new piece of the strip at `p` as the whole strip starts: `p` twice, the second
     /// at an odd position (`odd`) or an even one. Before it, the last vertex repeated and `p`
     /// repeated: degenerate triangles only (at most four indices; fewer when the strip so far
-    /// ends at `p`).
+    /// ends with `p`: from `(p, y)`, `p` twice leaves `(p, p)`, the window `(p, y, p)` being
+    /// degenerate).
     fn restart(&mut self, p: P, odd: bool) {
-        if self.len > 0 && self.last[1] != p {
+        if self.len > 0 && self.last[1] != p && (self.len < 2 || self.last[0] != p) {
             let v = self.last[1];
             self.append(v);
         }
@@ -349,12 +356,48 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
         self.left_only = false;
     }
 
+    /// Draws the counter-clockwise triangle `t` alone, joined to the strip so far by the
+    /// fewest degenerate triangles (at most [`BRIDGE`] indices in all; three on an empty
+    /// strip). A piece of one triangle needs no fixed entry, so it can start from whatever
+    /// the strip ends with: the shortest run found by [`bridges`].
+    fn bridge(&mut self, t: [P; 3]) {
+        if self.len < 2 {
+            for v in t {
+                self.append(v);
+            }
+            return;
+        }
+        let [x, y] = self.last;
+        let (mut best, mut best_len) = ([x; BRIDGE], usize::MAX);
+        let alphabet = [x, y, t[0], t[1], t[2]];
+        bridges(
+            x,
+            y,
+            self.len % 2,
+            t,
+            true,
+            &alphabet,
+            &mut |run, _, _, _| {
+                if run.len() < best_len {
+                    best_len = run.len();
+                    for (o, &v) in best.iter_mut().zip(run) {
+                        *o = v;
+                    }
+                }
+            },
+        );
+        for &v in best.iter().take(best_len) {
+            self.append(v);
+        }
+    }
+
     /// A grid that does not fill its square: the triangles across the domain's edge split,
     /// each triangle `(l, r, a)` inside (counter-clockwise, its split vertex `mid(l, r)` at
-    /// `level`) gets its own piece of strip from one end of its hypotenuse to the other
-    /// ([`Self::restart`]), the in/out-edge strip's (`soar == false`) or SOAR's. SOAR's parity: a vertex at `level` (the square's
-    /// centre is 0, the corners -1) sits at odd positions when `levels - level` is odd (the
-    /// number of levels is even).
+    /// `level`) gets its own piece of strip: drawn alone when it does not split
+    /// ([`Self::bridge`]), else from one end of its hypotenuse to the other
+    /// ([`Self::restart`]), the in/out-edge strip's (`soar == false`) or SOAR's. SOAR's
+    /// parity: a vertex at `level` (the square's centre is 0, the corners -1) sits at odd
+    /// positions when `levels - level` is odd (the number of levels is even).
     fn run_domain(&mut self, soar: bool) {
         let mask = self.r.view.map_or(0, |v| v.mask);
         let (g, levels) = (self.r.g, self.levels);
@@ -375,7 +418,13 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
             let apex = level.saturating_sub(1);
             let even = apex % 2 == 0;
             let (p, q) = if even { (l, r) } else { (r, l) };
-            if soar {
+            // A piece of one triangle (its split vertex inactive) is joined to the strip by
+            // the fewest indices ([`Self::bridge`]); a larger one is entered at `p`. (SOAR's
+            // recursion then tests `m` again, as it tests every vertex twice.)
+            let mut pm = mask;
+            if !self.active(m, level, &mut pm) {
+                self.bridge([l, r, a]);
+            } else if soar {
                 let (pp, pq) = (parity(p), parity(q));
                 self.restart(p, pp);
                 self.parity = pp;
@@ -386,17 +435,192 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
                 // As the whole strip starts at an odd position for its counter-clockwise base
                 // triangles, a clockwise piece starts at an even one.
                 self.restart(p, even);
-                let mut pm = mask;
-                if self.active(m, level, &mut pm) {
-                    self.refine(a, m, p, level, SIDE, SIDE, pm);
-                } else {
-                    self.append(a);
-                }
+                self.refine(a, m, p, level, SIDE, SIDE, pm);
                 self.append(q);
             }
             true
         });
     }
+}
+
+/// Longest run of indices [`strip_fewest_indices`] appends between two consecutive triangles:
+/// enough to join any two triangles (the last index repeated, the next triangle's first index
+/// twice, its other two, and one more to set the position's parity).
+const BRIDGE: usize = 6;
+
+/// The fewest indices of any generalized triangle strip that draws the triangles of `strip`
+/// ([`strip_triangles`]) in the same order, each counter-clockwise with `winding` (every window
+/// of three indices either degenerate or the next triangle, turned by its position's parity)
+/// or either way round without (for drawing with back faces kept), or `None` when `strip`
+/// draws no triangle. This measures how far a strip's degenerate triangles are from
+/// the least its triangle order allows, by dynamic programming over the strip's possible ends:
+/// after each triangle, the ordered pair of its vertices last in the strip and the parity of
+/// the next position (12 states), each reached from the ones before by the shortest run of
+/// appended indices (at most 6) whose windows are degenerate until the last. Time linear in
+/// the strip's length, no allocation.
+///
+/// ```
+/// use relief_core::refine::{strip_fewest_indices, strip_triangles};
+/// // A fan of four triangles around vertex 0 drawn as a strip: each pair of consecutive
+/// // triangles shares an edge, and one repeated index turns the strip round vertex 0.
+/// let strip = [1, 2, 0, 3, 0, 4, 5];
+/// assert_eq!(strip_triangles(&strip).count(), 4);
+/// assert_eq!(strip_fewest_indices(&strip, true), Some(7));
+/// // The same triangles with a wasted join: two more indices than needed.
+/// let wasteful = [1, 2, 0, 3, 3, 3, 0, 4, 5];
+/// assert!(strip_triangles(&wasteful).eq(strip_triangles(&strip)));
+/// assert_eq!(strip_fewest_indices(&wasteful, true), Some(7));
+/// ```
+pub fn strip_fewest_indices(strip: &[u32], winding: bool) -> Option<usize> {
+    let mut tris = strip_triangles(strip);
+    let first = tris.next()?;
+    // cost[par][i][j]: the fewest indices so far ending with (t[i], t[j]), the next window at
+    // parity `par`.
+    let mut cost = [[[usize::MAX; 3]; 3]; 2];
+    for r in 0..3 {
+        let (a, b, c) = (r, (r + 1) % 3, (r + 2) % 3);
+        // The triangle at position 0 as (a, b, c), or at position 1 as (b, a, c); without
+        // winding, either way round.
+        cost[1][b][c] = 3;
+        cost[0][a][c] = 4;
+        if !winding {
+            cost[1][a][c] = 3;
+            cost[0][b][c] = 4;
+        }
+    }
+    // The shortest bridges depend only on how the strip's last two indices relate to the next
+    // triangle's vertices, and on the parity: found once per such pattern.
+    let mut memo = [[u8::MAX; 18]; PATTERNS];
+    let mut known = [false; PATTERNS];
+    let mut prev = first;
+    for t in tris {
+        let mut next = [[[usize::MAX; 3]; 3]; 2];
+        for (par, rows) in cost.iter().enumerate() {
+            for (i, row) in rows.iter().enumerate() {
+                for (j, &c) in row.iter().enumerate() {
+                    if c == usize::MAX {
+                        continue;
+                    }
+                    let (a, b) = (prev[i], prev[j]);
+                    let ca = slot(t, a).unwrap_or(3);
+                    let cb = slot(t, b).unwrap_or(if a == b { 4 } else { 3 });
+                    let key = (ca * 5 + cb) * 2 + par;
+                    let Some(m) = memo.get_mut(key) else {
+                        continue;
+                    };
+                    if !known.get(key).copied().unwrap_or(true) {
+                        // Canonical labels: the triangle is (0, 1, 2), others 3 and 4.
+                        let label = |code: usize| if code < 3 { code as u32 } else { 3 };
+                        let (la, lb) = (label(ca), if cb == 3 && ca == 3 { 4 } else { label(cb) });
+                        let lb = if cb == 4 { la } else { lb };
+                        let alphabet = [la, lb, 0, 1, 2];
+                        let mut keep = |run: &[u32], x: u32, y: u32, np: usize| {
+                            if let Some(e) = m.get_mut(x as usize * 6 + y as usize * 2 + np) {
+                                *e = (*e).min(run.len() as u8);
+                            }
+                        };
+                        bridges(la, lb, par, [0, 1, 2], winding, &alphabet, &mut keep);
+                        if let Some(k) = known.get_mut(key) {
+                            *k = true;
+                        }
+                    }
+                    for (s, &n) in m.iter().enumerate() {
+                        if n == u8::MAX {
+                            continue;
+                        }
+                        let (x, y, np) = (s / 6, (s / 2) % 3, s % 2);
+                        let e = &mut next[np][x][y];
+                        *e = (*e).min(c.saturating_add(n as usize));
+                    }
+                }
+            }
+        }
+        cost = next;
+        prev = t;
+    }
+    cost.iter().flatten().flatten().copied().min()
+}
+
+/// Patterns of [`strip_fewest_indices`]'s bridges: where the strip's last two indices are in the
+/// next triangle (a vertex, or another index, and the second one equal to the first), and the
+/// parity.
+const PATTERNS: usize = 4 * 5 * 2;
+
+/// Where `v` is in `t`.
+fn slot(t: [u32; 3], v: u32) -> Option<usize> {
+    t.iter().position(|&u| u == v)
+}
+
+/// Calls `visit(run, x, y, par)` for every run of at most `BRIDGE` indices from `alphabet`
+/// appended after `(a, b)` (the next window at parity `par`) whose windows are all degenerate,
+/// the empty run included; `(x, y)` then ends the strip, the next window at `par`.
+/// `path[..depth]` holds the run so far. Recursion depth at most `BRIDGE`.
+#[allow(clippy::too_many_arguments)]
+fn degenerate_runs<V: Copy + PartialEq>(
+    a: V,
+    b: V,
+    par: usize,
+    alphabet: &[V],
+    path: &mut [V; BRIDGE],
+    depth: usize,
+    visit: &mut impl FnMut(&[V], V, V, usize),
+) {
+    visit(path.get(..depth).unwrap_or(&[]), a, b, par);
+    if depth >= BRIDGE {
+        return;
+    }
+    for (k, &z) in alphabet.iter().enumerate() {
+        if alphabet[..k].contains(&z) || !(a == b || b == z || a == z) {
+            continue;
+        }
+        if let Some(slot) = path.get_mut(depth) {
+            *slot = z;
+        }
+        degenerate_runs(b, z, par ^ 1, alphabet, path, depth + 1, visit);
+    }
+}
+
+/// Calls `found(run, x, y, par)` for every run of at most `BRIDGE` indices from `alphabet`
+/// appended after `(a, b)` (the next window at parity `par`) whose windows are degenerate
+/// until the last, which draws `t` counter-clockwise (either way round unless `winding`);
+/// `(x, y)` then ends the strip, the next window at `par`.
+fn bridges<V: Copy + PartialEq>(
+    a: V,
+    b: V,
+    par: usize,
+    t: [V; 3],
+    winding: bool,
+    alphabet: &[V; 5],
+    found: &mut impl FnMut(&[V], V, V, usize),
+) {
+    let mut path = [a; BRIDGE];
+    degenerate_runs(a, b, par, alphabet, &mut path, 0, &mut |run, a, b, par| {
+        if run.len() >= BRIDGE || a == b {
+            return;
+        }
+        let mut full = [a; BRIDGE];
+        for (o, &v) in full.iter_mut().zip(run) {
+            *o = v;
+        }
+        for (k, &z) in alphabet.iter().enumerate() {
+            if alphabet[..k].contains(&z) || z == a || z == b {
+                continue;
+            }
+            let w = if par == 0 || !winding {
+                [a, b, z]
+            } else {
+                [b, a, z]
+            };
+            let r = [t[0], t[2], t[1]];
+            let turns = |u: [V; 3]| w == u || w == [u[1], u[2], u[0]] || w == [u[2], u[0], u[1]];
+            if turns(t) || (!winding && turns(r)) {
+                if let Some(slot) = full.get_mut(run.len()) {
+                    *slot = z;
+                }
+                found(full.get(..=run.len()).unwrap_or(&[]), b, z, par ^ 1);
+            }
+        }
+    });
 }
 
 /// The triangles a generalized strip ([`Refiner::inout_strip`], [`Refiner::soar_strip`])

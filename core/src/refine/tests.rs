@@ -381,6 +381,15 @@ fn strip_draws_the_list_mesh(n: u32, nh: u32, seed: u64, e: f32, soar: bool) {
     }
     let tris = decode(&st[..c.indices]);
     assert_eq!(tris.len(), c.triangles);
+    // Against the fewest indices any strip of these triangles in this order needs: the strip
+    // itself is one such strip; on a square grid (one piece) it is the fewest up to its start
+    // (the entry vertex twice).
+    let fewest = strip_fewest_indices(&st[..c.indices], true).unwrap();
+    assert!(fewest <= c.indices, "{n}x{nh}: {fewest} > {c:?}");
+    let square = n == nh && (n - 1).is_power_of_two();
+    if square {
+        assert!(c.indices <= fewest + 3, "{n}x{nh}: {c:?}, fewest {fewest}");
+    }
     let m = Mesh {
         v: v[..c.vertices].to_vec(),
         t: tris.clone(),
@@ -396,7 +405,6 @@ fn strip_draws_the_list_mesh(n: u32, nh: u32, seed: u64, e: f32, soar: bool) {
     // Same as the list when the top levels are refined anyway (always on a grid that does
     // not fill its square: no forced levels there).
     let l = list(&hi, &hf, Criterion::MaxError(e));
-    let square = n == nh && (n - 1).is_power_of_two();
     if l.t.len() == tris.len() || !square {
         let key = |mm: &Mesh, t: [u32; 3]| {
             let p = t.map(|i| mm.v[i as usize].map(f32::to_bits));
@@ -410,11 +418,72 @@ fn strip_draws_the_list_mesh(n: u32, nh: u32, seed: u64, e: f32, soar: bool) {
         assert_eq!(x, y, "{n}x{nh}");
     }
     std::println!(
-        "{n}x{nh} E={e}: {} indices for {} triangles ({:.3})",
+        "{n}x{nh} E={e}: {} indices for {} triangles ({:.3}), fewest for this order {fewest}",
         c.indices,
         c.triangles,
         c.indices_per_triangle()
     );
+}
+
+/// `t` turned so that its smallest index comes first (the same triangle, same winding).
+fn rotated(t: [u32; 3]) -> [u32; 3] {
+    let k = (0..3).min_by_key(|&i| t[i]).unwrap();
+    [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+}
+
+/// Every strip of at most `len` indices from `0..k`, by brute force: the fewest that draws
+/// `want` (in order, nothing else; counter-clockwise with `winding`, either way without), if
+/// any.
+fn fewest_by_search(want: &[[u32; 3]], k: u32, len: usize, winding: bool) -> Option<usize> {
+    let key = |t: [u32; 3]| {
+        if winding {
+            rotated(t)
+        } else {
+            let mut u = t;
+            u.sort_unstable();
+            u
+        }
+    };
+    let mut s = vec![0u32; len];
+    for n in 3..=len {
+        let total = (k as u64).pow(n as u32);
+        for code in 0..total {
+            let mut c = code;
+            for v in s.iter_mut().take(n) {
+                *v = (c % k as u64) as u32;
+                c /= k as u64;
+            }
+            if decode(&s[..n])
+                .into_iter()
+                .map(key)
+                .eq(want.iter().copied().map(key))
+            {
+                return Some(n);
+            }
+        }
+    }
+    None
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// `strip_fewest_indices` equals a brute-force search over all short strips, on the
+    /// triangles of random short strips over four or five vertices, with and without winding.
+    #[test]
+    fn fewest_strip_indices_match_a_brute_force_search(
+        k in 4u32..6, strip in prop::collection::vec(0u32..5, 3..8), winding in prop::bool::ANY,
+    ) {
+        let strip: Vec<u32> = strip.into_iter().map(|v| v % k).collect();
+        let want = decode(&strip);
+        let fewest = strip_fewest_indices(&strip, winding);
+        if want.is_empty() {
+            prop_assert_eq!(fewest, None);
+        } else {
+            let f = fewest.unwrap();
+            prop_assert!(f <= strip.len());
+            prop_assert_eq!(fewest_by_search(&want, k, f, winding), Some(f), "{:?}", strip);
+        }
+    }
 }
 
 fn view_mesh<T: Terrain>(h: &Hierarchy<'_>, t: &T, v: View) -> Mesh {
