@@ -13,7 +13,7 @@ use crate::canvas::Canvas;
 use crate::refine::RefineInput;
 use crate::style::{rgba, viridis, BLACK, VERMILLION};
 use crate::{DiagramError, DiagramOptions};
-use relief_core::refine::{scratch_len, strip_triangles, StripCounts};
+use relief_core::refine::{scratch_len, strip_fewest_indices, strip_triangles, StripCounts};
 use relief_core::{Refiner, Scale, Terrain};
 use tiny_skia::Pixmap;
 
@@ -51,6 +51,9 @@ pub struct StripState {
     pub counts: StripCounts,
     /// The triangles the strip draws (degenerate ones dropped), in its order, counter-clockwise.
     pub triangles: Vec<[u32; 3]>,
+    /// The fewest indices any strip of these triangles in this order needs, each
+    /// counter-clockwise ([`strip_fewest_indices`]); `None` for a strip without triangles.
+    pub fewest: Option<usize>,
     /// Triangles that share no edge with the triangle before them: where the strip jumps, one
     /// per join between two pieces (none on a `(2^k+1)^2` grid, whose strip is one piece).
     pub joins: Vec<usize>,
@@ -73,6 +76,7 @@ pub struct StripState {
 /// let st = strip_state(&RefineInput::new(&hf, &h, Criterion::MaxError(0.0)), StripKind::Soar).unwrap();
 /// assert_eq!(st.triangles.len(), st.counts.triangles);
 /// assert!(st.joins.is_empty()); // a square grid: one piece
+/// assert!(st.counts.indices <= st.fewest.unwrap() + 3); // the fewest for its order, up to its start
 /// ```
 pub fn strip_state<T: Terrain>(
     input: &RefineInput<'_, T>,
@@ -99,11 +103,13 @@ pub fn strip_state<T: Terrain>(
         .filter(|(_, p)| p[1].iter().filter(|v| p[0].contains(v)).count() < 2)
         .map(|(k, _)| k + 1)
         .collect();
+    let fewest = strip_fewest_indices(&strip, true);
     Ok(StripState {
         vertices,
         strip,
         counts,
         triangles,
+        fewest,
         joins,
         scale: t.scale(),
         size: [w, h],
@@ -158,8 +164,9 @@ pub fn strip<T: Terrain>(
         hi,
         false,
         &format!(
-            "{name}: {} indices, {} triangles ({:.3} per triangle), {} decisions, {} joins",
+            "{name}: {} indices (fewest {}), {} triangles ({:.3} per triangle), {} decisions, {} joins",
             counts.indices,
+            st.fewest.unwrap_or(0),
             counts.triangles,
             counts.indices_per_triangle(),
             counts.tested,
