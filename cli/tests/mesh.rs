@@ -80,10 +80,20 @@ fn view_independent_mesh_writes_obj_and_stays_within_e() {
             assert!(v["refine_reused_ms"].as_f64().unwrap() >= 0.0);
             assert!(v["refine_fresh_repeat_ms"].as_f64().unwrap() >= 0.0);
             assert!(v["strip_length"].is_u64(), "{w}x{h}");
-            // Off the square no level is forced: both strips draw the mesh's triangles.
-            if !square {
-                for k in ["inout_strip", "soar_strip"] {
+            // Off the square no level is forced: both strips draw the mesh's triangles. Each
+            // strip is at least the fewest indices for its order, and on the square within its
+            // start (three indices) of it.
+            for k in ["inout_strip", "soar_strip"] {
+                if !square {
                     assert_eq!(v[k]["triangles"].as_u64().unwrap() as usize, nt, "{k}");
+                }
+                let (len, fewest) = (
+                    v[k]["indices"].as_u64().unwrap(),
+                    v[k]["fewest_indices"].as_u64().unwrap(),
+                );
+                assert!(fewest <= len && fewest > v[k]["triangles"].as_u64().unwrap());
+                if square {
+                    assert!(len <= fewest + 3, "{k}: {len} vs fewest {fewest}");
                 }
             }
         }

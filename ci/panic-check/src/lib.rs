@@ -421,6 +421,11 @@ pub unsafe extern "C" fn pc_refine(
         let any: &[u32] = view_mut(strip, strip_len);
         acc += relief_core::refine::strip_fewest_indices(any, true).unwrap_or(0) as f64;
         acc += relief_core::refine::strip_fewest_indices(any, false).unwrap_or(0) as f64;
+        let (bytes, out): (&mut [u8], &mut [u32]) = (
+            view_mut(tris.cast::<u8>(), tris_len),
+            view_mut(morph.cast::<u32>(), morph_len),
+        );
+        acc += relief_core::refine::strip_fewest(any, true, bytes, out).unwrap_or(0) as f64;
         acc += r
             .soar_strip_counts(view_mut(scratch, scratch_len))
             .map_or(0.0, |c| c.indices as f64);

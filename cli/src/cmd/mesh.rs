@@ -11,7 +11,7 @@ use relief_core::refine::{
     scratch_len, vertical_error_partial, Criterion, FrameCounts, Hierarchy, MeshVertex,
     RecordLayout, Refiner, StripCounts, VertexRecord, View,
 };
-use relief_core::refine::{triangle_bound, vertex_bound};
+use relief_core::refine::{strip_fewest_indices, triangle_bound, vertex_bound};
 use relief_core::Terrain;
 use relief_core::{Camera, Heightfield};
 use std::path::PathBuf;
@@ -421,12 +421,13 @@ pub fn run(a: &MeshArgs) -> CliResult {
     relief_io::write_obj(a_out, &vertices, &triangles)?;
     let uncovered_n = uncovered.map_or(0, |u| u.2);
     if a.json {
-        let stats = |s: StripCounts| {
+        let stats = |(s, fewest): (StripCounts, usize)| {
             serde_json::json!({
                 "indices": s.indices,
                 "triangles": s.triangles,
                 "indices_per_triangle": s.indices_per_triangle(),
                 "tested": s.tested,
+                "fewest_indices": fewest,
             })
         };
         let strip_json = stats(strip);
@@ -448,7 +449,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
             "refine_ms": refine_ms,
             "refine_reused_ms": refine_reused_ms,
             "refine_fresh_repeat_ms": refine_fresh_repeat_ms,
-            "strip_length": strip.indices,
+            "strip_length": strip.0.indices,
             "inout_strip": strip_json,
             "soar_strip": soar_json,
             "out": a_out.display().to_string(),
@@ -456,10 +457,11 @@ pub fn run(a: &MeshArgs) -> CliResult {
         print_out(&format!("{v}\n"))
     } else {
         let strip_line = format!(
-            "{} indices, {} triangles ({:.3} per triangle)",
-            strip.indices,
-            strip.triangles,
-            strip.indices_per_triangle()
+            "{} indices (fewest for its order {}), {} triangles ({:.3} per triangle)",
+            strip.0.indices,
+            strip.1,
+            strip.0.triangles,
+            strip.0.indices_per_triangle()
         );
         print_out(&format!(
             "{out}\n  mode        {criterion_kind}\n  size        {w} x {h}\n  vertices    {v}\n  triangles   {t}\n  max error   {max_err:.4} (measured over {cov} samples)\n  preprocess  {preprocess_ms:.1} ms ({layout:?}, {bpv} bytes/vertex{repeat})\n  refine      {refine_ms:.1} ms (fresh buffers; {refine_reused_ms:.1} ms into reused buffers)\n  strip       {strip_line}\n",
@@ -664,13 +666,14 @@ fn unreachable_criterion() -> CliResult<Criterion> {
     ))
 }
 
-/// The size of the in/out-edge strip (or SOAR's original strip with `soar`).
+/// The size of the in/out-edge strip (or SOAR's original strip with `soar`), and the fewest
+/// indices any strip of its triangles in its order needs (`strip_fewest_indices`).
 fn strip_stats(
     r: &Refiner<'_, '_, Heightfield<'_, f32>>,
     w: u32,
     h: u32,
     soar: bool,
-) -> CliResult<StripCounts> {
+) -> CliResult<(StripCounts, usize)> {
     let mut scratch = vec![0u64; scratch_len(w, h)];
     let need = if soar {
         r.soar_strip_counts(&mut scratch)?
@@ -679,9 +682,10 @@ fn strip_stats(
     };
     let mut v = vec![[0.0f32; 3]; need.vertices];
     let mut s = vec![0u32; need.indices];
-    Ok(if soar {
+    let c = if soar {
         r.soar_strip(&mut scratch, &mut v, &mut s)?
     } else {
         r.inout_strip(&mut scratch, &mut v, &mut s)?
-    })
+    };
+    Ok((c, strip_fewest_indices(&s[..c.indices], true).unwrap_or(0)))
 }

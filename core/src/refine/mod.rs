@@ -78,7 +78,7 @@ pub use scan::{coverage_len, vertical_error, vertical_error_partial, Uncovered};
 pub use select::{
     Criterion, FrameCounts, MeshVertex, MorphVertex, Refiner, StripCounts, UninitBuffers, View,
 };
-pub use strip::{strip_fewest_indices, strip_triangles};
+pub use strip::{strip_fewest, strip_fewest_indices, strip_fewest_scratch_len, strip_triangles};
 pub use tile::{
     border_len, export_border, export_border_compact, merge_border, merge_border_compact, renest,
     renest_compact, skirt, skirt_bound, Side,

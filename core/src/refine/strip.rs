@@ -12,9 +12,10 @@
 //! triangles are drawn coarse (outside the view), as in SOAR.
 //!
 //! [`strip_fewest_indices`] measures any strip against the fewest indices its triangle order
-//! allows. On a square grid both strips reach it up to their start (three indices over a
-//! whole mesh, about 1.6 per triangle on real DEMs); seed 004's 1.32 for its strip is below
-//! that fewest, even for strips drawn either way round (about 1.5: BENCHMARKS.md).
+//! allows, and [`strip_fewest`] rewrites it as that fewest. On a square grid both strips reach
+//! it up to their start (three indices over a whole mesh, about 1.6 per triangle on real DEMs);
+//! seed 004's 1.32 for its strip is below that fewest, even for strips drawn either way round
+//! (about 1.5: BENCHMARKS.md). Off the square they come within about a tenth of it.
 
 use super::grid::Edge;
 use super::select::{
@@ -80,6 +81,8 @@ struct Strip<'r, 'h, 't, T: Terrain, O: Out> {
     parity: bool,
     /// Decisions made ([`StripCounts::tested`]).
     tested: usize,
+    /// The shortest joins of pieces of one triangle ([`Self::bridge`]).
+    runs: Runs,
 }
 
 impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
@@ -96,6 +99,7 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
             levels: r.g.levels(),
             parity: false,
             tested: 0,
+            runs: Runs::new(true),
         }
     }
 
@@ -359,7 +363,7 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
     /// Draws the counter-clockwise triangle `t` alone, joined to the strip so far by the
     /// fewest degenerate triangles (at most [`BRIDGE`] indices in all; three on an empty
     /// strip). A piece of one triangle needs no fixed entry, so it can start from whatever
-    /// the strip ends with: the shortest run found by [`bridges`].
+    /// the strip ends with: the shortest run of [`Runs`] into any state of the triangle.
     fn bridge(&mut self, t: [P; 3]) {
         if self.len < 2 {
             for v in t {
@@ -368,26 +372,18 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
             return;
         }
         let [x, y] = self.last;
-        let (mut best, mut best_len) = ([x; BRIDGE], usize::MAX);
-        let alphabet = [x, y, t[0], t[1], t[2]];
-        bridges(
-            x,
-            y,
-            self.len % 2,
-            t,
-            true,
-            &alphabet,
-            &mut |run, _, _, _| {
-                if run.len() < best_len {
-                    best_len = run.len();
-                    for (o, &v) in best.iter_mut().zip(run) {
-                        *o = v;
-                    }
-                }
-            },
-        );
-        for &v in best.iter().take(best_len) {
-            self.append(v);
+        let par = self.len % 2;
+        let best = self
+            .runs
+            .get(x, y, par, t)
+            .iter()
+            .copied()
+            .min_by_key(|r| r.0)
+            .unwrap_or((u8::MAX, [0; BRIDGE]));
+        // Never `u8::MAX`: the strip so far ending anywhere, `y`, `l`, `l`, `r`, `a` (and one
+        // more `l` for the parity) draw the triangle.
+        for &l in best.1.iter().take(usize::from(best.0).min(BRIDGE)) {
+            self.append(Runs::vertex(t, x, y, l));
         }
     }
 
@@ -472,155 +468,379 @@ const BRIDGE: usize = 6;
 /// assert_eq!(strip_fewest_indices(&wasteful, true), Some(7));
 /// ```
 pub fn strip_fewest_indices(strip: &[u32], winding: bool) -> Option<usize> {
+    fewest_forward(strip, winding, &mut |_, _, _| {}).map(|(n, _)| n)
+}
+
+/// States of [`fewest_forward`]: the next window's parity (6 apart) and the ordered pair of
+/// distinct vertex slots `(i, j)` of the last triangle that end the strip.
+const STATES: usize = 12;
+
+/// The state of parity `par` ending with slots `(i, j)`, `i != j`.
+#[inline]
+fn state(par: usize, i: usize, j: usize) -> usize {
+    par * 6 + i * 2 + j - usize::from(j > i)
+}
+
+/// The parity and slots of state `s` ([`state`]'s inverse).
+#[inline]
+fn unstate(s: usize) -> (usize, usize, usize) {
+    let (par, q) = (s / 6, s % 6);
+    let i = q / 2;
+    let j = q % 2 + usize::from(q % 2 >= i);
+    (par, i, j)
+}
+
+/// The dynamic programme of [`strip_fewest_indices`]: the fewest indices and the state they
+/// end in; `record(k, to, from)` is called whenever state `to` of the `k`-th triangle (from 1)
+/// gets a new best, reached from state `from` of the triangle before (so the last call for a
+/// state names its best predecessor).
+fn fewest_forward(
+    strip: &[u32],
+    winding: bool,
+    record: &mut impl FnMut(usize, usize, usize),
+) -> Option<(usize, usize)> {
     let mut tris = strip_triangles(strip);
     let first = tris.next()?;
-    // cost[par][i][j]: the fewest indices so far ending with (t[i], t[j]), the next window at
-    // parity `par`.
-    let mut cost = [[[usize::MAX; 3]; 3]; 2];
+    let mut cost = [usize::MAX; STATES];
     for r in 0..3 {
         let (a, b, c) = (r, (r + 1) % 3, (r + 2) % 3);
-        // The triangle at position 0 as (a, b, c), or at position 1 as (b, a, c); without
-        // winding, either way round.
-        cost[1][b][c] = 3;
-        cost[0][a][c] = 4;
+        // The triangle at position 0 as (a, b, c), or at position 1 as (b, a, c) after one
+        // repeated index; without winding, either way round.
+        for (s, n) in [(state(1, b, c), 3), (state(0, a, c), 4)] {
+            if let Some(e) = cost.get_mut(s) {
+                *e = n;
+            }
+        }
         if !winding {
-            cost[1][a][c] = 3;
-            cost[0][b][c] = 4;
+            for (s, n) in [(state(1, a, c), 3), (state(0, b, c), 4)] {
+                if let Some(e) = cost.get_mut(s) {
+                    *e = n;
+                }
+            }
         }
     }
-    // The shortest bridges depend only on how the strip's last two indices relate to the next
-    // triangle's vertices, and on the parity: found once per such pattern.
-    let mut memo = [[u8::MAX; 18]; PATTERNS];
-    let mut known = [false; PATTERNS];
+    let mut runs = Runs::new(winding);
     let mut prev = first;
-    for t in tris {
-        let mut next = [[[usize::MAX; 3]; 3]; 2];
-        for (par, rows) in cost.iter().enumerate() {
-            for (i, row) in rows.iter().enumerate() {
-                for (j, &c) in row.iter().enumerate() {
-                    if c == usize::MAX {
-                        continue;
-                    }
-                    let (a, b) = (prev[i], prev[j]);
-                    let ca = slot(t, a).unwrap_or(3);
-                    let cb = slot(t, b).unwrap_or(if a == b { 4 } else { 3 });
-                    let key = (ca * 5 + cb) * 2 + par;
-                    let Some(m) = memo.get_mut(key) else {
-                        continue;
-                    };
-                    if !known.get(key).copied().unwrap_or(true) {
-                        // Canonical labels: the triangle is (0, 1, 2), others 3 and 4.
-                        let label = |code: usize| if code < 3 { code as u32 } else { 3 };
-                        let (la, lb) = (label(ca), if cb == 3 && ca == 3 { 4 } else { label(cb) });
-                        let lb = if cb == 4 { la } else { lb };
-                        let alphabet = [la, lb, 0, 1, 2];
-                        let mut keep = |run: &[u32], x: u32, y: u32, np: usize| {
-                            if let Some(e) = m.get_mut(x as usize * 6 + y as usize * 2 + np) {
-                                *e = (*e).min(run.len() as u8);
-                            }
-                        };
-                        bridges(la, lb, par, [0, 1, 2], winding, &alphabet, &mut keep);
-                        if let Some(k) = known.get_mut(key) {
-                            *k = true;
-                        }
-                    }
-                    for (s, &n) in m.iter().enumerate() {
-                        if n == u8::MAX {
-                            continue;
-                        }
-                        let (x, y, np) = (s / 6, (s / 2) % 3, s % 2);
-                        let e = &mut next[np][x][y];
-                        *e = (*e).min(c.saturating_add(n as usize));
-                    }
+    for (k, t) in tris.enumerate() {
+        let mut next = [usize::MAX; STATES];
+        for (from, &c) in cost.iter().enumerate() {
+            if c == usize::MAX {
+                continue;
+            }
+            let (par, i, j) = unstate(from);
+            let (Some(&a), Some(&b)) = (prev.get(i), prev.get(j)) else {
+                continue;
+            };
+            for (to, run) in runs.get(a, b, par, t).iter().enumerate() {
+                let Some(e) = next.get_mut(to) else {
+                    continue;
+                };
+                let via = c.saturating_add(usize::from(run.0));
+                if run.0 != u8::MAX && via < *e {
+                    *e = via;
+                    record(k + 1, to, from);
                 }
             }
         }
         cost = next;
         prev = t;
     }
-    cost.iter().flatten().flatten().copied().min()
+    let (s, &n) = cost.iter().enumerate().min_by_key(|&(_, &n)| n)?;
+    (n != usize::MAX).then_some((n, s))
 }
 
-/// Patterns of [`strip_fewest_indices`]'s bridges: where the strip's last two indices are in the
-/// next triangle (a vertex, or another index, and the second one equal to the first), and the
+/// Bytes of scratch [`strip_fewest`] needs for a strip of `len` indices: 6 per triangle it can
+/// draw (`len - 2`).
+///
+/// ```
+/// assert_eq!(relief_core::refine::strip_fewest_scratch_len(10), 48);
+/// ```
+#[must_use]
+pub const fn strip_fewest_scratch_len(len: usize) -> usize {
+    len.saturating_sub(2).saturating_mul(6)
+}
+
+/// Rewrites `strip` as the fewest indices that draw its triangles in the same order
+/// ([`strip_fewest_indices`], which is the length returned): each counter-clockwise with
+/// `winding` (the same triangles, each turned as `strip` draws it), or either way round
+/// without. `out` of `strip.len()` indices always suffices (the strip itself is one such
+/// strip). `scratch` holds the dynamic programme's choices, [`strip_fewest_scratch_len`]
+/// bytes. Errors: [`Error::BufferTooSmall`] for `scratch` or `out`. An empty result (0) when
+/// `strip` draws no triangle. Time linear in `strip.len()`, no allocation.
+///
+/// The strips of [`Refiner::inout_strip`] and [`Refiner::soar_strip`] already are the fewest
+/// for their order on a square grid, up to their start; off it, where they are made of pieces,
+/// this saves up to about a tenth (BENCHMARKS.md).
+///
+/// ```
+/// use relief_core::refine::{strip_fewest, strip_fewest_scratch_len, strip_triangles};
+/// // A fan of four triangles with a wasted join (two repeated indices too many).
+/// let wasteful = [1, 2, 0, 3, 3, 3, 0, 4, 5];
+/// let mut scratch = vec![0u8; strip_fewest_scratch_len(wasteful.len())];
+/// let mut out = [0u32; 9];
+/// let n = strip_fewest(&wasteful, true, &mut scratch, &mut out).unwrap();
+/// assert_eq!(n, 7);
+/// assert!(strip_triangles(&out[..n]).eq(strip_triangles(&wasteful)));
+/// ```
+pub fn strip_fewest(
+    strip: &[u32],
+    winding: bool,
+    scratch: &mut [u8],
+    out: &mut [u32],
+) -> Result<usize, Error> {
+    need(strip_fewest_scratch_len(strip.len()), scratch.len())?;
+    // Back-pointers: triangle k (from 1) has 6 bytes at 6 (k - 1), a nibble per state.
+    let mut put = |k: usize, to: usize, from: usize| {
+        if let Some(b) = scratch.get_mut(6 * (k - 1) + to / 2) {
+            let shift = 4 * (to % 2);
+            *b = (*b & !(0xf << shift)) | ((from as u8 & 0xf) << shift);
+        }
+    };
+    let Some((n, last)) = fewest_forward(strip, winding, &mut put) else {
+        return Ok(0);
+    };
+    need(n, out.len())?;
+    // Back from the last triangle: each triangle's chosen state, kept in the first byte of its
+    // own back-pointers once they are read.
+    let tris = strip_triangles(strip).count();
+    let mut s = last;
+    for k in (1..tris).rev() {
+        let base = 6 * (k - 1);
+        let from = scratch
+            .get(base + s / 2)
+            .map_or(0, |b| usize::from((b >> (4 * (s % 2))) & 0xf));
+        if let Some(b) = scratch.get_mut(base) {
+            *b = s as u8;
+        }
+        s = from;
+    }
+    // Forward: the first triangle in its state, then the shortest bridge into each next state.
+    let mut w = 0usize;
+    let mut emit = |v: u32, w: &mut usize| {
+        if let Some(o) = out.get_mut(*w) {
+            *o = v;
+        }
+        *w += 1;
+    };
+    let mut runs = Runs::new(winding);
+    let mut it = strip_triangles(strip);
+    let Some(first) = it.next() else {
+        return Ok(0);
+    };
+    let (par, i, j) = unstate(s);
+    let (u, v) = (first.get(i).copied(), first.get(j).copied());
+    let third = first
+        .iter()
+        .copied()
+        .find(|&x| Some(x) != u && Some(x) != v);
+    let (Some(u), Some(v), Some(third)) = (u, v, third) else {
+        return Err(Error::Internal {
+            what: "strip_fewest: a state outside the triangle",
+        });
+    };
+    // Position 0 as (third, u, v), or position 1 after `third` repeated.
+    if par == 0 {
+        emit(third, &mut w);
+    }
+    for x in [third, u, v] {
+        emit(x, &mut w);
+    }
+    let (mut a, mut b, mut p) = (u, v, par);
+    for (k, t) in it.enumerate() {
+        let to = scratch.get(6 * k).map_or(0, |&x| usize::from(x));
+        let (np, i, j) = unstate(to);
+        let (Some(&x), Some(&y)) = (t.get(i), t.get(j)) else {
+            return Err(Error::Internal {
+                what: "strip_fewest: a state outside the triangle",
+            });
+        };
+        let (len, labels) = runs
+            .get(a, b, p, t)
+            .get(to)
+            .copied()
+            .unwrap_or((u8::MAX, [0; 6]));
+        if len == u8::MAX {
+            return Err(Error::Internal {
+                what: "strip_fewest: no bridge into the chosen state",
+            });
+        }
+        for &l in labels.iter().take(usize::from(len)) {
+            emit(Runs::vertex(t, a, b, l), &mut w);
+        }
+        (a, b, p) = (x, y, np);
+    }
+    if w != n {
+        return Err(Error::Internal {
+            what: "strip_fewest: the strip written differs from its count",
+        });
+    }
+    Ok(n)
+}
+
+/// Patterns of [`Runs`]: where the strip's last two indices are in the next triangle (the
+/// first a vertex or not: 4; the second a vertex, equal to the first, or another: 5), and the
 /// parity.
 const PATTERNS: usize = 4 * 5 * 2;
 
+/// A shortest run of appended indices in canonical labels (the next triangle's vertices 0, 1
+/// and 2, the strip's last two indices 3 and 4 when they are not in it): its length
+/// (`u8::MAX`: none) and labels.
+type Run = (u8, [u8; BRIDGE]);
+
+/// No run into any state.
+const NO_RUNS: [Run; STATES] = [(u8::MAX, [0; BRIDGE]); STATES];
+
+/// The shortest bridges of [`fewest_forward`] and [`strip_fewest`], found once per pattern:
+/// for each way the strip's last two indices can relate to the next triangle (each a vertex
+/// of it or another index, the second possibly equal to the first) and each parity, the
+/// shortest run into each state of the triangle.
+struct Runs {
+    winding: bool,
+    runs: [[Run; STATES]; PATTERNS],
+    known: [bool; PATTERNS],
+}
+
+impl Runs {
+    fn new(winding: bool) -> Runs {
+        Runs {
+            winding,
+            runs: [NO_RUNS; PATTERNS],
+            known: [false; PATTERNS],
+        }
+    }
+
+    /// The canonical label of `v` after `(a, b)` before triangle `t`.
+    fn label<V: Copy + PartialEq>(t: [V; 3], a: V, v: V) -> u8 {
+        match slot(t, v) {
+            Some(k) => k as u8,
+            None if v == a => 3,
+            None => 4,
+        }
+    }
+
+    /// The index a label stands for.
+    fn vertex<V: Copy>(t: [V; 3], a: V, b: V, label: u8) -> V {
+        match label {
+            0..=2 => t.get(usize::from(label)).copied().unwrap_or(a),
+            3 => a,
+            _ => b,
+        }
+    }
+
+    /// The shortest runs from `(a, b)` (the next window at parity `par`) into each state of
+    /// `t` ([`state`]).
+    fn get<V: Copy + PartialEq>(&mut self, a: V, b: V, par: usize, t: [V; 3]) -> &[Run; STATES] {
+        let (la, lb) = (Self::label(t, a, a), Self::label(t, a, b));
+        let key = (usize::from(la.min(3)) * 5 + usize::from(lb)) * 2 + par;
+        let key = key.min(PATTERNS - 1);
+        if !self.known.get(key).copied().unwrap_or(true) {
+            if let Some(row) = self.runs.get_mut(key) {
+                *row = shortest_runs(la, lb, par, self.winding);
+            }
+            if let Some(k) = self.known.get_mut(key) {
+                *k = true;
+            }
+        }
+        self.runs.get(key).unwrap_or(&NO_RUNS)
+    }
+}
+
 /// Where `v` is in `t`.
-fn slot(t: [u32; 3], v: u32) -> Option<usize> {
+fn slot<V: Copy + PartialEq>(t: [V; 3], v: V) -> Option<usize> {
     t.iter().position(|&u| u == v)
 }
 
-/// Calls `visit(run, x, y, par)` for every run of at most `BRIDGE` indices from `alphabet`
-/// appended after `(a, b)` (the next window at parity `par`) whose windows are all degenerate,
-/// the empty run included; `(x, y)` then ends the strip, the next window at `par`.
-/// `path[..depth]` holds the run so far. Recursion depth at most `BRIDGE`.
-#[allow(clippy::too_many_arguments)]
-fn degenerate_runs<V: Copy + PartialEq>(
-    a: V,
-    b: V,
-    par: usize,
-    alphabet: &[V],
-    path: &mut [V; BRIDGE],
-    depth: usize,
-    visit: &mut impl FnMut(&[V], V, V, usize),
-) {
-    visit(path.get(..depth).unwrap_or(&[]), a, b, par);
-    if depth >= BRIDGE {
-        return;
+/// Label states of [`shortest_runs`]: the strip's last two labels (0 to 4 each) and the parity.
+const LABEL_STATES: usize = 5 * 5 * 2;
+
+/// The shortest runs of appended labels from `(la, lb)` (the next window at parity `par`) into
+/// each state of the triangle `(0, 1, 2)` ([`state`]): every window degenerate until the last,
+/// which draws the triangle counter-clockwise (either way round unless `winding`), at most
+/// [`BRIDGE`] labels. A breadth-first search over the label states the degenerate windows
+/// reach (at most 50), each then closed by one drawing append.
+fn shortest_runs(la: u8, lb: u8, par: usize, winding: bool) -> [Run; STATES] {
+    let idx = |a: u8, b: u8, p: usize| (usize::from(a) * 5 + usize::from(b)) * 2 + p;
+    let alphabet = [la, lb, 0, 1, 2];
+    let letters = |k: usize| alphabet.get(k).is_some_and(|z| !alphabet[..k].contains(z));
+    // Distance, and the state and label each was first reached from.
+    let mut dist = [u8::MAX; LABEL_STATES];
+    let mut from = [(0usize, 0u8); LABEL_STATES];
+    let mut queue = [(0u8, 0u8, 0usize); LABEL_STATES];
+    let (mut head, mut tail) = (0usize, 0usize);
+    let start = idx(la, lb, par);
+    if let (Some(d), Some(q)) = (dist.get_mut(start), queue.get_mut(0)) {
+        *d = 0;
+        *q = (la, lb, par);
+        tail = 1;
     }
-    for (k, &z) in alphabet.iter().enumerate() {
-        if alphabet[..k].contains(&z) || !(a == b || b == z || a == z) {
+    let mut out = NO_RUNS;
+    while head < tail {
+        let Some(&(a, b, p)) = queue.get(head) else {
+            break;
+        };
+        head += 1;
+        let here = idx(a, b, p);
+        let d = dist.get(here).copied().unwrap_or(u8::MAX);
+        if usize::from(d) >= BRIDGE {
             continue;
         }
-        if let Some(slot) = path.get_mut(depth) {
-            *slot = z;
-        }
-        degenerate_runs(b, z, par ^ 1, alphabet, path, depth + 1, visit);
-    }
-}
-
-/// Calls `found(run, x, y, par)` for every run of at most `BRIDGE` indices from `alphabet`
-/// appended after `(a, b)` (the next window at parity `par`) whose windows are degenerate
-/// until the last, which draws `t` counter-clockwise (either way round unless `winding`);
-/// `(x, y)` then ends the strip, the next window at `par`.
-fn bridges<V: Copy + PartialEq>(
-    a: V,
-    b: V,
-    par: usize,
-    t: [V; 3],
-    winding: bool,
-    alphabet: &[V; 5],
-    found: &mut impl FnMut(&[V], V, V, usize),
-) {
-    let mut path = [a; BRIDGE];
-    degenerate_runs(a, b, par, alphabet, &mut path, 0, &mut |run, a, b, par| {
-        if run.len() >= BRIDGE || a == b {
-            return;
-        }
-        let mut full = [a; BRIDGE];
-        for (o, &v) in full.iter_mut().zip(run) {
-            *o = v;
-        }
         for (k, &z) in alphabet.iter().enumerate() {
-            if alphabet[..k].contains(&z) || z == a || z == b {
+            if !letters(k) {
                 continue;
             }
-            let w = if par == 0 || !winding {
+            if a == b || b == z || a == z {
+                // A degenerate window: a new state, if not reached before.
+                let there = idx(b, z, p ^ 1);
+                if dist.get(there).is_some_and(|&e| e == u8::MAX) && usize::from(d) + 1 < BRIDGE {
+                    if let (Some(e), Some(f), Some(q)) = (
+                        dist.get_mut(there),
+                        from.get_mut(there),
+                        queue.get_mut(tail),
+                    ) {
+                        *e = d + 1;
+                        *f = (here, z);
+                        *q = (b, z, p ^ 1);
+                        tail += 1;
+                    }
+                }
+                continue;
+            }
+            // A drawing window: the triangle, the right way round?
+            let w = if p == 0 || !winding {
                 [a, b, z]
             } else {
                 [b, a, z]
             };
-            let r = [t[0], t[2], t[1]];
-            let turns = |u: [V; 3]| w == u || w == [u[1], u[2], u[0]] || w == [u[2], u[0], u[1]];
-            if turns(t) || (!winding && turns(r)) {
-                if let Some(slot) = full.get_mut(run.len()) {
-                    *slot = z;
-                }
-                found(full.get(..=run.len()).unwrap_or(&[]), b, z, par ^ 1);
+            let turns = |u: [u8; 3]| w == u || w == [u[1], u[2], u[0]] || w == [u[2], u[0], u[1]];
+            if !(turns([0, 1, 2]) || (!winding && turns([0, 2, 1]))) {
+                continue;
             }
+            let Some(e) = out.get_mut(state(p ^ 1, usize::from(b), usize::from(z))) else {
+                continue;
+            };
+            if d + 1 >= e.0 {
+                continue;
+            }
+            // The run: back through the states to the start, then `z`.
+            e.0 = d + 1;
+            let mut at = here;
+            let mut run = [0u8; BRIDGE];
+            if let Some(r) = run.get_mut(usize::from(d)) {
+                *r = z;
+            }
+            for slot in (0..usize::from(d)).rev() {
+                let Some(&(prev, letter)) = from.get(at) else {
+                    break;
+                };
+                if let Some(r) = run.get_mut(slot) {
+                    *r = letter;
+                }
+                at = prev;
+            }
+            e.1 = run;
         }
-    });
+    }
+    out
 }
 
 /// The triangles a generalized strip ([`Refiner::inout_strip`], [`Refiner::soar_strip`])

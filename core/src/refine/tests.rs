@@ -386,6 +386,11 @@ fn strip_draws_the_list_mesh(n: u32, nh: u32, seed: u64, e: f32, soar: bool) {
     // (the entry vertex twice).
     let fewest = strip_fewest_indices(&st[..c.indices], true).unwrap();
     assert!(fewest <= c.indices, "{n}x{nh}: {fewest} > {c:?}");
+    let mut back = vec![0u8; strip_fewest_scratch_len(c.indices)];
+    let mut re = vec![0u32; c.indices];
+    let k = strip_fewest(&st[..c.indices], true, &mut back, &mut re).unwrap();
+    assert_eq!(k, fewest);
+    assert!(same_triangles(&re[..k], &st[..c.indices], true), "{n}x{nh}");
     let square = n == nh && (n - 1).is_power_of_two();
     if square {
         assert!(c.indices <= fewest + 3, "{n}x{nh}: {c:?}, fewest {fewest}");
@@ -429,6 +434,45 @@ fn strip_draws_the_list_mesh(n: u32, nh: u32, seed: u64, e: f32, soar: bool) {
 fn rotated(t: [u32; 3]) -> [u32; 3] {
     let k = (0..3).min_by_key(|&i| t[i]).unwrap();
     [t[k], t[(k + 1) % 3], t[(k + 2) % 3]]
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(128))]
+    /// `strip_fewest` on longer random strips (beyond the brute force): as many indices as
+    /// `strip_fewest_indices` says, the same triangles in the same order, both ways.
+    #[test]
+    fn strip_fewest_rewrites_long_random_strips(
+        strip in prop::collection::vec(0u32..7, 3..80), winding in prop::bool::ANY,
+    ) {
+        let mut scratch = vec![0u8; strip_fewest_scratch_len(strip.len())];
+        let mut out = vec![0u32; strip.len()];
+        let n = strip_fewest(&strip, winding, &mut scratch, &mut out).unwrap();
+        prop_assert_eq!(n, strip_fewest_indices(&strip, winding).unwrap_or(0));
+        prop_assert!(n <= strip.len());
+        prop_assert!(same_triangles(&out[..n], &strip, winding));
+        // Rewriting again changes nothing in length.
+        let mut again = vec![0u32; n];
+        let mut scratch2 = vec![0u8; strip_fewest_scratch_len(n)];
+        prop_assert_eq!(strip_fewest(&out[..n], winding, &mut scratch2, &mut again), Ok(n));
+    }
+}
+
+/// Whether strips `a` and `b` draw the same triangles in the same order (each the same way
+/// round with `winding`).
+fn same_triangles(a: &[u32], b: &[u32], winding: bool) -> bool {
+    let key = |t: [u32; 3]| {
+        if winding {
+            rotated(t)
+        } else {
+            let mut u = t;
+            u.sort_unstable();
+            u
+        }
+    };
+    decode(a)
+        .into_iter()
+        .map(key)
+        .eq(decode(b).into_iter().map(key))
 }
 
 /// Every strip of at most `len` indices from `0..k`, by brute force: the fewest that draws
@@ -476,12 +520,23 @@ proptest! {
         let strip: Vec<u32> = strip.into_iter().map(|v| v % k).collect();
         let want = decode(&strip);
         let fewest = strip_fewest_indices(&strip, winding);
+        let mut scratch = vec![0u8; strip_fewest_scratch_len(strip.len())];
+        let mut out = vec![0u32; strip.len()];
+        let n = strip_fewest(&strip, winding, &mut scratch, &mut out).unwrap();
         if want.is_empty() {
             prop_assert_eq!(fewest, None);
+            prop_assert_eq!(n, 0);
         } else {
             let f = fewest.unwrap();
             prop_assert!(f <= strip.len());
             prop_assert_eq!(fewest_by_search(&want, k, f, winding), Some(f), "{:?}", strip);
+            // The rewritten strip: that many indices, the same triangles in the same order.
+            prop_assert_eq!(n, f);
+            prop_assert!(same_triangles(&out[..n], &strip, winding), "{:?} -> {:?}", strip, &out[..n]);
+            if n > 0 {
+                prop_assert!(strip_fewest(&strip, winding, &mut scratch, &mut out[..n - 1]).is_err());
+                prop_assert!(strip_fewest(&strip, winding, &mut scratch[1..], &mut out).is_err());
+            }
         }
     }
 }
