@@ -457,18 +457,22 @@ proptest! {
     }
 }
 
+/// Triangle `t` as a strip draws it: turned so that its smallest index comes first with
+/// `winding`, its indices sorted without (either way round the same).
+fn drawn(t: [u32; 3], winding: bool) -> [u32; 3] {
+    if winding {
+        rotated(t)
+    } else {
+        let mut u = t;
+        u.sort_unstable();
+        u
+    }
+}
+
 /// Whether strips `a` and `b` draw the same triangles in the same order (each the same way
 /// round with `winding`).
 fn same_triangles(a: &[u32], b: &[u32], winding: bool) -> bool {
-    let key = |t: [u32; 3]| {
-        if winding {
-            rotated(t)
-        } else {
-            let mut u = t;
-            u.sort_unstable();
-            u
-        }
-    };
+    let key = |t| drawn(t, winding);
     decode(a)
         .into_iter()
         .map(key)
@@ -479,15 +483,7 @@ fn same_triangles(a: &[u32], b: &[u32], winding: bool) -> bool {
 /// `want` (in order, nothing else; counter-clockwise with `winding`, either way without), if
 /// any.
 fn fewest_by_search(want: &[[u32; 3]], k: u32, len: usize, winding: bool) -> Option<usize> {
-    let key = |t: [u32; 3]| {
-        if winding {
-            rotated(t)
-        } else {
-            let mut u = t;
-            u.sort_unstable();
-            u
-        }
-    };
+    let key = |t| drawn(t, winding);
     let mut s = vec![0u32; len];
     for n in 3..=len {
         let total = (k as u64).pow(n as u32);
