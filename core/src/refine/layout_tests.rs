@@ -158,8 +158,7 @@ fn same_mesh_case(w: u32, h: u32, hf: &Heightfield<'_, f32>, full: &Hierarchy<'_
                     let strip_tris = |hier: &Hierarchy<'_>| -> Vec<[[u32; 3]; 3]> {
                         let r = Refiner::new(hier, &hf, c).unwrap();
                         let (v, st, k) = super::tests::strip(&r, soar);
-                        super::tests::decode(&st[..k.indices])
-                            .iter()
+                        super::strip_triangles(&st[..k.indices])
                             .map(|t| t.map(|i| v[..k.vertices][i as usize].map(f32::to_bits)))
                             .collect()
                     };

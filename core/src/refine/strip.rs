@@ -81,8 +81,6 @@ struct Strip<'r, 'h, 't, T: Terrain, O: Out> {
     parity: bool,
     /// Decisions made ([`StripCounts::tested`]).
     tested: usize,
-    /// The shortest joins of pieces of one triangle ([`Self::bridge`]).
-    runs: Runs,
 }
 
 impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
@@ -99,7 +97,6 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
             levels: r.g.levels(),
             parity: false,
             tested: 0,
-            runs: Runs::new(true),
         }
     }
 
@@ -364,7 +361,7 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
     /// fewest degenerate triangles (at most [`BRIDGE`] indices in all; three on an empty
     /// strip). A piece of one triangle needs no fixed entry, so it can start from whatever
     /// the strip ends with: the shortest run of [`Runs`] into any state of the triangle.
-    fn bridge(&mut self, t: [P; 3]) {
+    fn bridge(&mut self, runs: &mut Runs, t: [P; 3]) {
         if self.len < 2 {
             for v in t {
                 self.append(v);
@@ -373,8 +370,7 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
         }
         let [x, y] = self.last;
         let par = self.len % 2;
-        let best = self
-            .runs
+        let best = runs
             .get(x, y, par, t)
             .iter()
             .copied()
@@ -397,6 +393,8 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
     fn run_domain(&mut self, soar: bool) {
         let mask = self.r.view.map_or(0, |v| v.mask);
         let (g, levels) = (self.r.g, self.levels);
+        // The shortest joins of pieces of one triangle, found as the pieces need them.
+        let mut runs = Runs::new(true);
         // A vertex's side of the strip; the square's corners (no level) are on the odd side.
         let parity = |v: P| {
             g.level(v.0 as u32, v.1 as u32)
@@ -419,7 +417,7 @@ impl<'r, 'h, 't, T: Terrain, O: Out> Strip<'r, 'h, 't, T, O> {
             // recursion then tests `m` again, as it tests every vertex twice.)
             let mut pm = mask;
             if !self.active(m, level, &mut pm) {
-                self.bridge([l, r, a]);
+                self.bridge(&mut runs, [l, r, a]);
             } else if soar {
                 let (pp, pq) = (parity(p), parity(q));
                 self.restart(p, pp);
@@ -468,7 +466,7 @@ const BRIDGE: usize = 6;
 /// assert_eq!(strip_fewest_indices(&wasteful, true), Some(7));
 /// ```
 pub fn strip_fewest_indices(strip: &[u32], winding: bool) -> Option<usize> {
-    fewest_forward(strip, winding, &mut |_, _, _| {}).map(|(n, _)| n)
+    fewest_forward(strip, &mut Runs::new(winding), &mut |_, _, _| {}).map(|(n, _, _)| n)
 }
 
 /// States of [`fewest_forward`]: the next window's parity (6 apart) and the ordered pair of
@@ -490,15 +488,16 @@ fn unstate(s: usize) -> (usize, usize, usize) {
     (par, i, j)
 }
 
-/// The dynamic programme of [`strip_fewest_indices`]: the fewest indices and the state they
-/// end in; `record(k, to, from)` is called whenever state `to` of the `k`-th triangle (from 1)
+/// The dynamic programme of [`strip_fewest_indices`] (its bridges from `runs`, whose
+/// winding it keeps): the fewest indices, the state they end in and the triangles drawn; `record(k, to, from)` is called whenever state `to` of the `k`-th triangle (from 1)
 /// gets a new best, reached from state `from` of the triangle before (so the last call for a
 /// state names its best predecessor).
 fn fewest_forward(
     strip: &[u32],
-    winding: bool,
+    runs: &mut Runs,
     record: &mut impl FnMut(usize, usize, usize),
-) -> Option<(usize, usize)> {
+) -> Option<(usize, usize, usize)> {
+    let winding = runs.winding;
     let mut tris = strip_triangles(strip);
     let first = tris.next()?;
     let mut cost = [usize::MAX; STATES];
@@ -519,9 +518,10 @@ fn fewest_forward(
             }
         }
     }
-    let mut runs = Runs::new(winding);
     let mut prev = first;
+    let mut count = 1;
     for (k, t) in tris.enumerate() {
+        count += 1;
         let mut next = [usize::MAX; STATES];
         for (from, &c) in cost.iter().enumerate() {
             if c == usize::MAX {
@@ -546,7 +546,7 @@ fn fewest_forward(
         prev = t;
     }
     let (s, &n) = cost.iter().enumerate().min_by_key(|&(_, &n)| n)?;
-    (n != usize::MAX).then_some((n, s))
+    (n != usize::MAX).then_some((n, s, count))
 }
 
 /// Bytes of scratch [`strip_fewest`] needs for a strip of `len` indices: 6 per triangle it can
@@ -596,13 +596,13 @@ pub fn strip_fewest(
             *b = (*b & !(0xf << shift)) | ((from as u8 & 0xf) << shift);
         }
     };
-    let Some((n, last)) = fewest_forward(strip, winding, &mut put) else {
+    let mut runs = Runs::new(winding);
+    let Some((n, last, tris)) = fewest_forward(strip, &mut runs, &mut put) else {
         return Ok(0);
     };
     need(n, out.len())?;
     // Back from the last triangle: each triangle's chosen state, kept in the first byte of its
     // own back-pointers once they are read.
-    let tris = strip_triangles(strip).count();
     let mut s = last;
     for k in (1..tris).rev() {
         let base = 6 * (k - 1);
@@ -622,7 +622,6 @@ pub fn strip_fewest(
         }
         *w += 1;
     };
-    let mut runs = Runs::new(winding);
     let mut it = strip_triangles(strip);
     let Some(first) = it.next() else {
         return Ok(0);

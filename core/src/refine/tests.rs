@@ -165,19 +165,6 @@ fn buffer_one_too_small_is_an_error() {
     assert!(preprocess_compact(&hf, &mut e2).is_err());
 }
 
-/// Decodes a strip into counter-clockwise triangles (degenerates dropped).
-pub(crate) fn decode(strip: &[u32]) -> Vec<[u32; 3]> {
-    let mut out = Vec::new();
-    for k in 0..strip.len().saturating_sub(2) {
-        let (a, b, c) = (strip[k], strip[k + 1], strip[k + 2]);
-        if a == b || b == c || a == c {
-            continue;
-        }
-        out.push(if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
-    }
-    out
-}
-
 /// SOAR's strip (`soar`) or the in/out-edge strip of `r` into bound-sized buffers: vertices,
 /// strip indices, counts.
 pub(crate) fn strip<T: Terrain>(
@@ -379,7 +366,7 @@ fn strip_draws_the_list_mesh(n: u32, nh: u32, seed: u64, e: f32, soar: bool) {
     for (g, p) in g[..c.vertices].iter().zip(&v) {
         assert_eq!([g[0] as f32, g[1] as f32], [p[0], p[1]]);
     }
-    let tris = decode(&st[..c.indices]);
+    let tris: Vec<[u32; 3]> = strip_triangles(&st[..c.indices]).collect();
     assert_eq!(tris.len(), c.triangles);
     // Against the fewest indices any strip of these triangles in this order needs: the strip
     // itself is one such strip; on a square grid (one piece) it is the fewest up to its start
@@ -473,10 +460,7 @@ fn drawn(t: [u32; 3], winding: bool) -> [u32; 3] {
 /// round with `winding`).
 fn same_triangles(a: &[u32], b: &[u32], winding: bool) -> bool {
     let key = |t| drawn(t, winding);
-    decode(a)
-        .into_iter()
-        .map(key)
-        .eq(decode(b).into_iter().map(key))
+    strip_triangles(a).map(key).eq(strip_triangles(b).map(key))
 }
 
 /// Every strip of at most `len` indices from `0..k`, by brute force: the fewest that draws
@@ -493,8 +477,7 @@ fn fewest_by_search(want: &[[u32; 3]], k: u32, len: usize, winding: bool) -> Opt
                 *v = (c % k as u64) as u32;
                 c /= k as u64;
             }
-            if decode(&s[..n])
-                .into_iter()
+            if strip_triangles(&s[..n])
                 .map(key)
                 .eq(want.iter().copied().map(key))
             {
@@ -514,7 +497,7 @@ proptest! {
         k in 4u32..6, strip in prop::collection::vec(0u32..5, 3..8), winding in prop::bool::ANY,
     ) {
         let strip: Vec<u32> = strip.into_iter().map(|v| v % k).collect();
-        let want = decode(&strip);
+        let want: Vec<[u32; 3]> = strip_triangles(&strip).collect();
         let fewest = strip_fewest_indices(&strip, winding);
         let mut scratch = vec![0u8; strip_fewest_scratch_len(strip.len())];
         let mut out = vec![0u32; strip.len()];
