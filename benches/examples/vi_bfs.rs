@@ -1,6 +1,6 @@
 //! A yardstick for view-independent extraction (issue 3), not library code: the traversal of
 //! `Refiner::triangles_popcnt` on a square grid (the kept-vertex bitmap with its rank prefix,
-//! vertices packed with their ranks, the two finest levels without a branch) written four
+//! vertices packed with their ranks, the two finest levels without a branch) written six
 //! ways over the same bitmap:
 //! - *depth first*: the library's recursion up to 2026-12-06 afternoon, each child's split
 //!   tested in its own call;
@@ -15,7 +15,12 @@
 //!   the evening of 2026-12-06 (`walk_known`), which writes a child that does not split without
 //!   calling itself (the library now also walks the five finest levels inline, without calls).
 //!
-//! All four give the library's triangles (asserted on each case; the two depth-first forms in
+//! - *by padded rows* and *by masks* (2026-12-07): by vertex without a branch on the kind of
+//!   vertex: rows aligned to words, one pass per kind of vertex in a row; by masks decides each
+//!   triangle of a kind for 64 vertices at once and numbers vertices through a grid-sized map
+//!   (`Vi::by_padded`, `Vi::by_mask`). `CLASSES=1` prints the kept vertices by level.
+//!
+//! All of them give the library's triangles (asserted on each case; the two depth-first forms in
 //! the library's order). Timed: each alone over the same bitmap, fastest of `RUNS`, bitmap
 //! and output warm; the library's whole `triangles_popcnt` (selection and vertices included)
 //! for scale; and writing the same number of triangles with nothing else, the floor of any
@@ -267,25 +272,343 @@ impl Vi<'_, '_> {
                     self.vertex_edge(i, x, y);
                     continue;
                 }
-                // Inside: every diamond corner is in the grid. `c`: 1 for the centre of a
-                // square, 0 for the midpoint of a side; `h = 2^tz`.
-                let tz = xy.trailing_zeros();
-                let c = ((x >> tz) & (y >> tz) & 1) as usize;
-                let base = if c == 1 { &bc } else { &be };
-                let iu = i as u64;
-                let mut off = [0i64; 4];
-                let mut rk = [0u32; 4];
-                for k in 0..4 {
-                    off[k] = base[k] << tz;
-                    rk[k] = self.rank((i + off[k]) as u64);
+                let rv = self.rank(i as u64);
+                self.vertex_inside(i, x, y, rv, &be, &bc);
+            }
+        }
+    }
+
+    /// [`Self::by_vertex`] for a vertex `i = (x, y)` of rank `rv` inside the grid (every diamond
+    /// corner in it); `be`, `bc`: the corners' offsets for `h = 1`.
+    #[inline(always)]
+    fn vertex_inside(&mut self, i: i64, x: i64, y: i64, rv: u32, be: &[i64; 4], bc: &[i64; 4]) {
+        // `c`: 1 for the centre of a square, 0 for the midpoint of a side; `h = 2^tz`.
+        let tz = (x | y).trailing_zeros();
+        let c = ((x >> tz) & (y >> tz) & 1) as usize;
+        let base = if c == 1 { bc } else { be };
+        let mut off = [0i64; 4];
+        let mut rk = [0u32; 4];
+        for k in 0..4 {
+            off[k] = base[k] << tz;
+            rk[k] = self.rank((i + off[k]) as u64);
+        }
+        let leaf = ((c == 0) & (tz == 0)) as u64;
+        for k in 0..4 {
+            let k1 = (k + 1) & 3;
+            let split = (i + ((off[k] + off[k1]) >> 1)) as u64;
+            let emit = leaf | (self.kept(split) ^ 1);
+            self.o.put_if([rk[k], rk[k1], rv], emit as usize);
+        }
+    }
+
+    /// The same triangles as [`Self::by_vertex`], row by row in the order of their apex `v`,
+    /// every level through passes over a row-aligned copy of the bitmap (`pad`, built here),
+    /// one pass per kind of vertex in the row, so no branch picks the kind: in row `y` whose
+    /// lowest set bit is `t`, the midpoints of horizontal sides of `2s` for each `s < t` (at `x
+    /// = s mod 2s`), then the centres of squares of side `2t` (`x = t mod 2t`) and the midpoints
+    /// of vertical sides of `2t` (`x = 0 mod 2t`). The finest level (`s = 1`) takes the ranks of
+    /// a vertex's left and right neighbours as one less and one more. Rows 0 and `n` go
+    /// through [`Self::vertex_edge`].
+    #[target_feature(enable = "popcnt")]
+    fn by_padded(&mut self, pad: &mut Padded) {
+        let n = self.side;
+        let w = n + 1;
+        let nw = pad.nw;
+        for y in 0..w {
+            let (bits, base) = (
+                &mut pad.bits[y as usize * nw..][..nw],
+                &mut pad.base[y as usize * nw..][..nw],
+            );
+            self.load_into(bits, base, y as i64);
+        }
+        let pad = &*pad;
+        self.edge_rows(pad);
+        for y in 1..n {
+            if y & 1 == 1 {
+                self.pass_fine(pad, y, true);
+                self.pass_fine(pad, y, false);
+                continue;
+            }
+            let t = y & y.wrapping_neg();
+            self.pass_fine(pad, y, false);
+            let mut s = 2;
+            while s < t {
+                self.pass(pad, y, s, s, false);
+                s <<= 1;
+            }
+            self.pass(pad, y, t, t, true);
+            self.pass(pad, y, t, 0, false);
+        }
+    }
+
+    /// The finest level of row `y`: the centres at odd `x` of an odd row (`centres`), or
+    /// the leaf midpoints (even `x` of an odd row, odd `x` of an even row).
+    #[inline(always)]
+    fn pass_fine(&mut self, pad: &Padded, y: u64, centres: bool) {
+        let n = self.side;
+        let nw = pad.nw;
+        let row = |yy: u64| (yy as usize) * nw;
+        let (cu, up, dn) = (row(y), row(y - 1), row(y + 1));
+        let mask = if centres == (y & 1 == 1) { ODD } else { !ODD };
+        for j in 0..nw {
+            let mut b = pad.bits[cu + j] & mask;
+            while b != 0 {
+                let x = (j as u64) * 64 + u64::from(b.trailing_zeros());
+                b &= b - 1;
+                let rv = pad.rank(cu, x);
+                if centres {
+                    let (ru, rd) = (pad.rank(up, x - 1), pad.rank(dn, x - 1));
+                    let (ku, kd) = (pad.kept(up, x), pad.kept(dn, x));
+                    let (kl, kr) = (pad.kept(cu, x - 1), pad.kept(cu, x + 1));
+                    let c = [rd + 1 + kd as u32, rd, ru, ru + 1 + ku as u32];
+                    self.o.put_if([c[0], c[1], rv], (kd ^ 1) as usize);
+                    self.o.put_if([c[1], c[2], rv], (kl ^ 1) as usize);
+                    self.o.put_if([c[2], c[3], rv], (ku ^ 1) as usize);
+                    self.o.put_if([c[3], c[0], rv], (kr ^ 1) as usize);
+                } else {
+                    let (ru, rd) = (pad.rank(up, x), pad.rank(dn, x));
+                    let (left, right) = ((x != 0) as usize, (x != n) as usize);
+                    let (rl, rr) = (rv.wrapping_sub(1), rv + 1);
+                    self.o.put_if([rr, rd, rv], right);
+                    self.o.put_if([rd, rl, rv], left);
+                    self.o.put_if([rl, ru, rv], left);
+                    self.o.put_if([ru, rr, rv], right);
                 }
-                let rv = self.rank(iu);
-                let leaf = ((c == 0) & (tz == 0)) as u64;
-                for k in 0..4 {
-                    let k1 = (k + 1) & 3;
-                    let split = (i + ((off[k] + off[k1]) >> 1)) as u64;
-                    let emit = leaf | (self.kept(split) ^ 1);
-                    self.o.put_if([rk[k], rk[k1], rv], emit as usize);
+            }
+        }
+    }
+
+    /// The kept vertices of row `y` at `x = r mod 2s` (`s >= 2`): centres of squares of side
+    /// `2s` (`centre`) or midpoints of sides of `2s`, each with its up to four triangles.
+    #[inline(always)]
+    fn pass(&mut self, pad: &Padded, y: u64, s: u64, r: u64, centre: bool) {
+        let n = self.side;
+        let nw = pad.nw;
+        let row = |yy: u64| (yy as usize) * nw;
+        let (cu, up, dn) = (row(y), row(y - s), row(y + s));
+        let h = s / 2;
+        let (uh, dh) = (row(y - h), row(y + h));
+        let pm = kind_mask(s, r, 0);
+        for j in 0..nw {
+            let m = if 2 * s <= 64 { pm } else { kind_mask(s, r, j) };
+            let mut b = pad.bits[cu + j] & m;
+            while b != 0 {
+                let x = (j as u64) * 64 + u64::from(b.trailing_zeros());
+                b &= b - 1;
+                let rv = pad.rank(cu, x);
+                if centre {
+                    let c = [
+                        pad.rank(dn, x + s),
+                        pad.rank(dn, x - s),
+                        pad.rank(up, x - s),
+                        pad.rank(up, x + s),
+                    ];
+                    let k = [
+                        pad.kept(dn, x),
+                        pad.kept(cu, x - s),
+                        pad.kept(up, x),
+                        pad.kept(cu, x + s),
+                    ];
+                    for q in 0..4 {
+                        self.o
+                            .put_if([c[q], c[(q + 1) & 3], rv], (k[q] ^ 1) as usize);
+                    }
+                } else {
+                    let (left, right) = ((x != 0) as u64, (x != n) as u64);
+                    let c = [
+                        pad.rank(cu, x.wrapping_add(s)),
+                        pad.rank(dn, x),
+                        pad.rank(cu, x.wrapping_sub(s)),
+                        pad.rank(up, x),
+                    ];
+                    let k = [
+                        pad.kept(dh, x.wrapping_add(h)),
+                        pad.kept(dh, x.wrapping_sub(h)),
+                        pad.kept(uh, x.wrapping_sub(h)),
+                        pad.kept(uh, x.wrapping_add(h)),
+                    ];
+                    let v = [right, left, left, right];
+                    for q in 0..4 {
+                        self.o
+                            .put_if([c[q], c[(q + 1) & 3], rv], (v[q] & (k[q] ^ 1)) as usize);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Row `y` of the bitmap into `bits`, aligned to word 0, with the rank of each word's
+    /// first bit in `base`.
+    #[inline(always)]
+    fn load_into(&self, bits: &mut [u64], base: &mut [u32], y: i64) {
+        let w = self.side + 1;
+        let s = y as u64 * w;
+        let (q, o) = ((s >> 6) as usize, s & 63);
+        let word = |k: usize| self.bits.get(k).copied().unwrap_or(0);
+        let mut acc = self.prefix.get(q).copied().unwrap_or(0)
+            + (word(q) & ((1u64 << o) - 1)).count_ones() as u64;
+        let nw = bits.len();
+        let last = w - 64 * (nw as u64 - 1);
+        for j in 0..nw {
+            let lo = word(q + j) >> o;
+            let hi = if o == 0 {
+                0
+            } else {
+                word(q + j + 1) << (64 - o)
+            };
+            let mut v = lo | hi;
+            if j == nw - 1 && last < 64 {
+                v &= (1u64 << last) - 1;
+            }
+            bits[j] = v;
+            base[j] = acc as u32;
+            acc += v.count_ones() as u64;
+        }
+    }
+
+    /// The same triangles as [`Self::by_padded`], but each triangle's decision made for 64
+    /// vertices at once (a word of the kept vertices of a kind, less the word of their split
+    /// vertices, shifted into place) and vertices numbered through `idx`, a map from grid index
+    /// to vertex number filled here in one pass over the kept vertices (which the vertex
+    /// writes make anyway): a triangle is then three loads and a store.
+    #[target_feature(enable = "popcnt")]
+    fn by_mask(&mut self, pad: &mut Padded, idx: &mut [u32]) {
+        let n = self.side;
+        let w = n + 1;
+        let nw = pad.nw;
+        let mut r = 0u32;
+        for y in 0..w {
+            let (bits, base) = (
+                &mut pad.bits[y as usize * nw..][..nw],
+                &mut pad.base[y as usize * nw..][..nw],
+            );
+            self.load_into(bits, base, y as i64);
+            let row = y as usize * w as usize;
+            for (j, &word) in bits.iter().enumerate() {
+                let mut b = word;
+                while b != 0 {
+                    let x = j * 64 + b.trailing_zeros() as usize;
+                    b &= b - 1;
+                    if let Some(v) = idx.get_mut(row + x) {
+                        *v = r;
+                    }
+                    r += 1;
+                }
+            }
+        }
+        let pad = &*pad;
+        let idx = &*idx;
+        self.edge_rows(pad);
+        for y in 1..n {
+            let t = y & y.wrapping_neg();
+            if t == 1 {
+                self.mask_pass(pad, idx, y, 1, 1, true);
+                self.mask_pass(pad, idx, y, 1, 0, false);
+                continue;
+            }
+            let mut s = 1;
+            while s < t {
+                self.mask_pass(pad, idx, y, s, s, false);
+                s <<= 1;
+            }
+            self.mask_pass(pad, idx, y, t, t, true);
+            self.mask_pass(pad, idx, y, t, 0, false);
+        }
+    }
+
+    /// One kind of vertex of row `y` (`x = r mod 2s`): centres of squares of side `2s`
+    /// (`centre`) or midpoints of sides of `2s`, their triangles decided a word at a time.
+    #[inline(always)]
+    fn mask_pass(&mut self, pad: &Padded, idx: &[u32], y: u64, s: u64, r: u64, centre: bool) {
+        let n = self.side;
+        let w = n + 1;
+        let nw = pad.nw;
+        let row = |yy: u64| (yy as usize) * nw;
+        let si = s as i64;
+        let wi = w as i64;
+        // Corners counter-clockwise as grid-index offsets, and each triangle's split vertex as
+        // (row, column shift); a leaf has none.
+        let (off, split): ([i64; 4], [(u64, i64); 4]) = if centre {
+            (
+                [si * wi + si, si * wi - si, -si * wi - si, -si * wi + si],
+                [(y + s, 0), (y, -si), (y - s, 0), (y, si)],
+            )
+        } else {
+            let h = si / 2;
+            let (yd, yu) = (y + s / 2, y - s / 2);
+            (
+                [si, si * wi, -si, -si * wi],
+                [(yd, h), (yd, -h), (yu, -h), (yu, h)],
+            )
+        };
+        let leaf = !centre && s == 1;
+        let cu = row(y);
+        let cur = &pad.bits[cu..cu + nw];
+        // Each split row as a slice, with the shift as whole words and bits.
+        let mut srow: [&[u64]; 4] = [cur; 4];
+        let mut sq = [0i64; 4];
+        let mut so = [0u32; 4];
+        for k in 0..4 {
+            let (sy, dx) = split[k];
+            let b = row(sy).min(pad.bits.len());
+            srow[k] = &pad.bits[b..(b + nw).min(pad.bits.len())];
+            sq[k] = dx.div_euclid(64);
+            so[k] = dx.rem_euclid(64) as u32;
+        }
+        let pm = kind_mask(s, r, 0);
+        for (j, &cw) in cur.iter().enumerate() {
+            let m = if 2 * s <= 64 { pm } else { kind_mask(s, r, j) };
+            let kw = cw & m;
+            if kw == 0 {
+                continue;
+            }
+            // Vertices at x = 0 and x = n lack their left and right halves.
+            let first = if j == 0 { !1u64 } else { !0 };
+            let lastx = n as usize;
+            let last = if lastx / 64 == j {
+                !(1u64 << (lastx % 64))
+            } else {
+                !0
+            };
+            let valid = [last, first, first, last];
+            let p0 = (y * w) as i64 + 64 * j as i64;
+            for k in 0..4 {
+                let k1 = (k + 1) & 3;
+                let mut e = kw;
+                if !centre {
+                    e &= valid[k];
+                }
+                if !leaf {
+                    let q = j as i64 + sq[k];
+                    let get = |i: i64| srow[k].get(i as usize).copied().unwrap_or(0);
+                    let o = so[k];
+                    let sh = (get(q) >> o) | if o == 0 { 0 } else { get(q + 1) << (64 - o) };
+                    e &= !sh;
+                }
+                while e != 0 {
+                    let x = i64::from(e.trailing_zeros());
+                    e &= e - 1;
+                    let p = p0 + x;
+                    let at = |o: i64| idx.get((p + o) as usize).copied().unwrap_or(0);
+                    self.o.put([at(off[k]), at(off[k1]), at(0)]);
+                }
+            }
+        }
+    }
+
+    /// Rows 0 and `n` of the padded bitmap through [`Self::vertex_edge`].
+    #[inline(always)]
+    fn edge_rows(&mut self, pad: &Padded) {
+        let (n, nw) = (self.side, pad.nw);
+        for y in [0, n] {
+            for j in 0..nw {
+                let mut b = pad.bits[y as usize * nw + j];
+                while b != 0 {
+                    let x = (j as u64) * 64 + u64::from(b.trailing_zeros());
+                    b &= b - 1;
+                    if (x | y) != 0 {
+                        self.vertex_edge((y * (n + 1) + x) as i64, x as i64, y as i64);
+                    }
                 }
             }
         }
@@ -381,8 +704,8 @@ fn main() {
         b: Box::new([[0; 3]; CAP]),
     };
     println!("{name} {w}x{h}, block {block}, fastest of {runs}, ms");
-    println!("| E (m) | triangles | library `triangles_popcnt` (whole) | the same, grid-coordinate vertices | depth first | blocks | depth first / blocks | by vertex | writes only | depth first, children tested before the call |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| E (m) | triangles | library `triangles_popcnt` (whole) | the same, grid-coordinate vertices | depth first | blocks | depth first / blocks | by vertex | writes only | depth first, children tested before the call | by padded rows | by masks |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     // ONLY=e: that threshold alone.
     let only: Option<f32> = std::env::var("ONLY").ok().and_then(|v| v.parse().ok());
     for e in [1.0f32, 5.0, 20.0, 50.0] {
@@ -446,6 +769,32 @@ fn main() {
         let mut o1 = vec![[0u32; 3]; nt + 2];
         let mut o2 = vec![[0u32; 3]; nt + 2];
         let mut o3 = vec![[0u32; 3]; nt + 2];
+        let nw = (w as usize).div_ceil(64);
+        let mut pad = Padded {
+            bits: vec![0; nw * w as usize],
+            base: vec![0; nw * w as usize],
+            nw,
+        };
+        let mut o5 = vec![[0u32; 3]; nt + 2];
+        let mut run_pad = |o: &mut [[u32; 3]]| {
+            let mut vi = make(bits, prefix, side, o);
+            // SAFETY: popcnt checked above.
+            unsafe { vi.by_padded(&mut pad) };
+            vi.o.n
+        };
+        let mut pad2 = Padded {
+            bits: vec![0; nw * w as usize],
+            base: vec![0; nw * w as usize],
+            nw,
+        };
+        let mut idx = vec![0u32; (w * h) as usize];
+        let mut o6 = vec![[0u32; 3]; nt + 2];
+        let mut run_mask = |o: &mut [[u32; 3]]| {
+            let mut vi = make(bits, prefix, side, o);
+            // SAFETY: popcnt checked above.
+            unsafe { vi.by_mask(&mut pad2, &mut idx) };
+            vi.o.n
+        };
         let run_dfs = |o: &mut [[u32; 3]]| {
             let mut vi = make(bits, prefix, side, o);
             for (l, r, a) in vi.roots() {
@@ -484,15 +833,37 @@ fn main() {
         assert_eq!(run_known(&mut o1), nt);
         assert!(o1[..nt] == want[..], "known splits differ from the library");
         want.sort_unstable();
-        assert_eq!(run_blocks(&mut o2), nt);
-        let mut got = o2[..nt].to_vec();
-        got.sort_unstable();
-        assert!(got == want, "blocks give other triangles");
-        assert_eq!(run_vertex(&mut o3), nt);
-        let mut got3 = o3[..nt].to_vec();
-        got3.sort_unstable();
-        assert!(got3 == want, "by vertex gives other triangles");
-        let (mut td, mut tb, mut tf, mut tv, mut tk) = (
+        // The other forms write the same triangles in another order.
+        let same_set = |n: usize, o: &[[u32; 3]], form: &str| {
+            assert_eq!(n, nt, "{form}: other count");
+            let mut got = o[..nt].to_vec();
+            got.sort_unstable();
+            assert!(got == want, "{form} gives other triangles");
+        };
+        same_set(run_blocks(&mut o2), &o2, "blocks");
+        same_set(run_vertex(&mut o3), &o3, "by vertex");
+        same_set(run_pad(&mut o5), &o5, "by padded rows");
+        same_set(run_mask(&mut o6), &o6, "by masks");
+        if std::env::var("CLASSES").is_ok() {
+            // Kept vertices of the finest level (odd x or y) and of the coarser ones.
+            let (mut fine, mut coarse) = (0usize, 0usize);
+            for (i, &e2) in errs.iter().enumerate() {
+                let (x, y) = (i % w as usize, i / w as usize);
+                if e2 > e {
+                    if (x | y) & 1 == 1 {
+                        fine += 1;
+                    } else {
+                        coarse += 1;
+                    }
+                }
+            }
+            eprintln!(
+                "E {e}: kept vertices of the finest level {fine}, of coarser levels {coarse}"
+            );
+        }
+        let (mut td, mut tb, mut tf, mut tv, mut tk, mut tp, mut tm) = (
+            f64::INFINITY,
+            f64::INFINITY,
             f64::INFINITY,
             f64::INFINITY,
             f64::INFINITY,
@@ -513,6 +884,12 @@ fn main() {
             black_box(run_vertex(&mut o3));
             tv = tv.min(s.elapsed().as_secs_f64() * 1e3);
             let s = Instant::now();
+            black_box(run_pad(&mut o5));
+            tp = tp.min(s.elapsed().as_secs_f64() * 1e3);
+            let s = Instant::now();
+            black_box(run_mask(&mut o6));
+            tm = tm.min(s.elapsed().as_secs_f64() * 1e3);
+            let s = Instant::now();
             for (k, t) in o2[..nt].iter_mut().enumerate() {
                 *t = [k as u32; 3];
             }
@@ -520,8 +897,50 @@ fn main() {
             tf = tf.min(s.elapsed().as_secs_f64() * 1e3);
         }
         println!(
-            "| {e} | {nt} | {lib:.3} | {lib_grid:.3} | {td:.3} | {tb:.3} | {:.2} | {tv:.3} | {tf:.3} | {tk:.3} |",
+            "| {e} | {nt} | {lib:.3} | {lib_grid:.3} | {td:.3} | {tb:.3} | {:.2} | {tv:.3} | {tf:.3} | {tk:.3} | {tp:.3} | {tm:.3} |",
             td / tb
         );
+    }
+}
+
+/// The columns `x = r mod 2s` of word `j` of a row-aligned bitmap row.
+fn kind_mask(s: u64, r: u64, j: usize) -> u64 {
+    if 2 * s <= 64 {
+        let mut m = 0u64;
+        let mut p = r;
+        while p < 64 {
+            m |= 1 << p;
+            p += 2 * s;
+        }
+        m
+    } else {
+        ((64 * j as u64) % (2 * s) == r) as u64
+    }
+}
+
+/// Bits at odd positions of a row-aligned word (rows start at bit 0, so `x` odd).
+const ODD: u64 = 0xaaaa_aaaa_aaaa_aaaa;
+
+/// The bitmap with each row aligned to a word (`nw` words a row), and the rank of each word's
+/// first bit.
+struct Padded {
+    bits: Vec<u64>,
+    base: Vec<u32>,
+    nw: usize,
+}
+
+impl Padded {
+    /// Rank of `x` in the row starting at word `row`.
+    #[inline(always)]
+    fn rank(&self, row: usize, x: u64) -> u32 {
+        let j = row.wrapping_add((x >> 6) as usize);
+        let b = self.bits.get(j).copied().unwrap_or(0);
+        self.base.get(j).copied().unwrap_or(0) + (b & ((1u64 << (x & 63)) - 1)).count_ones()
+    }
+    /// Whether `x` of the row starting at word `row` is kept.
+    #[inline(always)]
+    fn kept(&self, row: usize, x: u64) -> u64 {
+        let j = row.wrapping_add((x >> 6) as usize);
+        (self.bits.get(j).copied().unwrap_or(0) >> (x & 63)) & 1
     }
 }
