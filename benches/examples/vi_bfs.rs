@@ -704,8 +704,8 @@ fn main() {
         b: Box::new([[0; 3]; CAP]),
     };
     println!("{name} {w}x{h}, block {block}, fastest of {runs}, ms");
-    println!("| E (m) | triangles | library `triangles_popcnt` (whole) | the same, grid-coordinate vertices | depth first | blocks | depth first / blocks | by vertex | writes only | depth first, children tested before the call | by padded rows | by masks |");
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("| E (m) | triangles | library `triangles_popcnt` (whole) | the same, grid-coordinate vertices | the same, AVX-512 build | depth first | blocks | depth first / blocks | by vertex | writes only | depth first, children tested before the call | by padded rows | by masks |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     // ONLY=e: that threshold alone.
     let only: Option<f32> = std::env::var("ONLY").ok().and_then(|v| v.parse().ok());
     for e in [1.0f32, 5.0, 20.0, 50.0] {
@@ -723,13 +723,24 @@ fn main() {
             lib = lib.min(s.elapsed().as_secs_f64() * 1e3);
         }
         // The same with grid-coordinate vertices, martini's and pymartini's output format.
-        let mut lib_grid = f64::INFINITY;
+        // Alternated with the AVX-512 build where the CPU has it (its selection fills the
+        // bitmap a word at a time; the walk is the same).
+        let avx512 =
+            std::is_x86_feature_detected!("avx512f") && std::is_x86_feature_detected!("avx512bw");
+        let (mut lib_grid, mut lib_wide) = (f64::INFINITY, f64::INFINITY);
         for _ in 0..runs {
             let s = Instant::now();
             // SAFETY: popcnt checked above.
             let cg = unsafe { r.triangles_popcnt(&mut scratch, &mut grid_verts, &mut tris) };
             assert_eq!(black_box(cg).unwrap(), c);
             lib_grid = lib_grid.min(s.elapsed().as_secs_f64() * 1e3);
+            if avx512 {
+                let s = Instant::now();
+                // SAFETY: popcnt, AVX-512F and AVX-512BW checked.
+                let cg = unsafe { r.triangles_avx512(&mut scratch, &mut grid_verts, &mut tris) };
+                assert_eq!(black_box(cg).unwrap(), c);
+                lib_wide = lib_wide.min(s.elapsed().as_secs_f64() * 1e3);
+            }
         }
         let nt = c.triangles;
         // The kept set: the corners and every vertex whose error exceeds E.
@@ -897,7 +908,7 @@ fn main() {
             tf = tf.min(s.elapsed().as_secs_f64() * 1e3);
         }
         println!(
-            "| {e} | {nt} | {lib:.3} | {lib_grid:.3} | {td:.3} | {tb:.3} | {:.2} | {tv:.3} | {tf:.3} | {tk:.3} | {tp:.3} | {tm:.3} |",
+            "| {e} | {nt} | {lib:.3} | {lib_grid:.3} | {lib_wide:.3} | {td:.3} | {tb:.3} | {:.2} | {tv:.3} | {tf:.3} | {tk:.3} | {tp:.3} | {tm:.3} |",
             td / tb
         );
     }

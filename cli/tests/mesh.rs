@@ -79,6 +79,7 @@ fn view_independent_mesh_writes_obj_and_stays_within_e() {
             assert!(v["refine_ms"].as_f64().unwrap() >= 0.0);
             assert!(v["refine_reused_ms"].as_f64().unwrap() >= 0.0);
             assert!(v["refine_fresh_repeat_ms"].as_f64().unwrap() >= 0.0);
+            assert!(["avx512", "popcnt", "default"].contains(&v["refine_build"].as_str().unwrap()));
             assert!(v["strip_length"].is_u64(), "{w}x{h}");
             // Off the square no level is forced: both strips draw the mesh's triangles. Each
             // strip is at least the fewest indices for its order, and on the square within its

@@ -15,6 +15,14 @@ use relief_io::{read_dem, Format, ReadOptions};
 use relief_tests::mesh_check::{check_mesh, CheckOptions, MeshReport};
 use std::path::{Path, PathBuf};
 
+/// Whether the CPU runs the AVX-512 builds (`triangles_avx512`, `triangles_uninit_avx512`).
+#[cfg(target_arch = "x86_64")]
+fn has_avx512() -> bool {
+    std::is_x86_feature_detected!("popcnt")
+        && std::is_x86_feature_detected!("avx512f")
+        && std::is_x86_feature_detected!("avx512bw")
+}
+
 struct Mesh {
     v: Vec<[f32; 3]>,
     t: Vec<[u32; 3]>,
@@ -82,6 +90,18 @@ fn same_as_grid_vertices<T: Terrain>(
             calls.push(Box::new(|s, g, o| {
                 uninit(s, g, o, &|s, b| unsafe {
                     r.triangles_uninit_popcnt(s, move |_| b)
+                })
+            }));
+        }
+    }
+    #[cfg(target_arch = "x86_64")]
+    if has_avx512() {
+        // SAFETY (both): the CPU has popcnt, AVX-512F and AVX-512BW.
+        calls.push(Box::new(|s, g, o| unsafe { r.triangles_avx512(s, g, o) }));
+        if view_independent {
+            calls.push(Box::new(|s, g, o| {
+                uninit(s, g, o, &|s, b| unsafe {
+                    r.triangles_uninit_avx512(s, move |_| b)
                 })
             }));
         }
@@ -164,6 +184,13 @@ fn same_uninit<T: Terrain>(
             r.triangles_uninit_popcnt(s, |_| (v, t))
         }));
     }
+    #[cfg(target_arch = "x86_64")]
+    if has_avx512() {
+        // SAFETY: the CPU has popcnt, AVX-512F and AVX-512BW.
+        calls.push(Box::new(|s, (v, t)| unsafe {
+            r.triangles_uninit_avx512(s, |_| (v, t))
+        }));
+    }
     // `buffers` is called once, with the counts, and not at all for the view-dependent criterion.
     let seen = std::cell::Cell::new(None);
     let (mut v3, mut t3) = (
@@ -214,19 +241,31 @@ fn same_uninit<T: Terrain>(
     }
 }
 
-/// `triangles_popcnt` (where the CPU has popcnt) writes exactly what `triangles` wrote, and
-/// refuses buffers one element short the same way.
+/// `triangles_popcnt` and `triangles_avx512` (where the CPU has their instructions) write
+/// exactly what `triangles` wrote, and refuse buffers one element short the same way.
 fn same_with_popcnt<T: Terrain>(
     r: &Refiner<'_, '_, T>,
     s: &mut [u64],
     v: &[[f32; 3]],
     t: &[[u32; 3]],
 ) {
+    type Build<'r> = Box<
+        dyn Fn(&mut [u64], &mut [[f32; 3]], &mut [[u32; 3]]) -> Result<FrameCounts, Error> + 'r,
+    >;
+    let mut builds: Vec<Build<'_>> = Vec::new();
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("popcnt") {
-        let (mut v2, mut t2) = (vec![[f32::NAN; 3]; v.len()], vec![[u32::MAX; 3]; t.len()]);
         // SAFETY: the CPU has popcnt.
-        let c = unsafe { r.triangles_popcnt(s, &mut v2, &mut t2) }.unwrap();
+        builds.push(Box::new(|s, v, t| unsafe { r.triangles_popcnt(s, v, t) }));
+    }
+    #[cfg(target_arch = "x86_64")]
+    if has_avx512() {
+        // SAFETY: the CPU has popcnt, AVX-512F and AVX-512BW.
+        builds.push(Box::new(|s, v, t| unsafe { r.triangles_avx512(s, v, t) }));
+    }
+    for build in &builds {
+        let (mut v2, mut t2) = (vec![[f32::NAN; 3]; v.len()], vec![[u32::MAX; 3]; t.len()]);
+        let c = build(s, &mut v2, &mut t2).unwrap();
         assert_eq!((c.vertices, c.triangles), (v.len(), t.len()));
         assert!(v2
             .iter()
@@ -234,8 +273,7 @@ fn same_with_popcnt<T: Terrain>(
             .all(|(a, b)| a.map(f32::to_bits) == b.map(f32::to_bits)));
         assert_eq!(t2, t);
         if let Some(short) = t2.len().checked_sub(1) {
-            // SAFETY: as above.
-            let e = unsafe { r.triangles_popcnt(s, &mut v2, &mut t2[..short]) };
+            let e = build(s, &mut v2, &mut t2[..short]);
             assert_eq!(e, r.triangles(s, &mut v2, &mut t2[..short]));
             assert!(e.is_err());
         }

@@ -397,6 +397,24 @@ pub unsafe extern "C" fn pc_refine(
         }) {
             acc += c.triangles as f64;
         }
+        // The AVX-512 builds, both vertex types.
+        #[cfg(target_arch = "x86_64")]
+        if let Ok(c) = r.triangles_avx512(
+            view_mut(scratch, scratch_len),
+            view_mut(verts, verts_len),
+            view_mut(tris, tris_len),
+        ) {
+            acc += c.triangles as f64;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if let Ok(c) = r.triangles_uninit_avx512(view_mut(scratch, scratch_len), |_| {
+            (
+                view_mut(gv.cast::<MaybeUninit<[u16; 2]>>(), verts_len),
+                view_mut(ut, tris_len),
+            )
+        }) {
+            acc += c.vertices as f64;
+        }
         acc += r
             .grid_triangles(view_mut(tris, tris_len))
             .map_or(0.0, |n| n as f64);

@@ -449,6 +449,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
             "refine_ms": refine_ms,
             "refine_reused_ms": refine_reused_ms,
             "refine_fresh_repeat_ms": refine_fresh_repeat_ms,
+            "refine_build": extract_build(),
             "strip_length": strip.0.indices,
             "inout_strip": strip_json,
             "soar_strip": soar_json,
@@ -553,7 +554,27 @@ fn timed_refine<T: Terrain, P: MeshVertex + Default>(
     Ok((vertices, triangles, counts, times))
 }
 
-/// `Refiner::triangles`, with the `popcnt` build of it where the CPU has the instruction (same
+/// Whether the CPU runs `Refiner::triangles_avx512` and `triangles_uninit_avx512`.
+#[cfg(target_arch = "x86_64")]
+fn has_avx512() -> bool {
+    std::is_x86_feature_detected!("popcnt")
+        && std::is_x86_feature_detected!("avx512f")
+        && std::is_x86_feature_detected!("avx512bw")
+}
+
+/// Which build of the extraction [`extract`] and [`extract_uninit`] run on this CPU:
+/// `"avx512"`, `"popcnt"` or `"default"` (`refine_build` in the JSON).
+fn extract_build() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx512() {
+        return "avx512";
+    } else if std::is_x86_feature_detected!("popcnt") {
+        return "popcnt";
+    }
+    "default"
+}
+
+/// `Refiner::triangles`, with its AVX-512 or `popcnt` build where the CPU has them (same
 /// output).
 fn extract<T: Terrain, P: MeshVertex>(
     r: &Refiner<'_, '_, T>,
@@ -561,6 +582,11 @@ fn extract<T: Terrain, P: MeshVertex>(
     vertices: &mut [P],
     triangles: &mut [[u32; 3]],
 ) -> CliResult<FrameCounts> {
+    #[cfg(target_arch = "x86_64")]
+    if has_avx512() {
+        // SAFETY: the CPU has popcnt, AVX-512F and AVX-512BW.
+        return Ok(unsafe { r.triangles_avx512(scratch, vertices, triangles) }?);
+    }
     #[cfg(target_arch = "x86_64")]
     if std::is_x86_feature_detected!("popcnt") {
         // SAFETY: the CPU has popcnt.
@@ -590,7 +616,10 @@ fn extract_uninit<T: Terrain, P: MeshVertex>(
         (v.spare_capacity_mut(), t.spare_capacity_mut())
     };
     #[cfg(target_arch = "x86_64")]
-    let c = if std::is_x86_feature_detected!("popcnt") {
+    let c = if has_avx512() {
+        // SAFETY: the CPU has popcnt, AVX-512F and AVX-512BW.
+        unsafe { r.triangles_uninit_avx512(scratch, buffers) }?
+    } else if std::is_x86_feature_detected!("popcnt") {
         // SAFETY: the CPU has popcnt.
         unsafe { r.triangles_uninit_popcnt(scratch, buffers) }?
     } else {

@@ -598,9 +598,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     ) -> Result<FrameCounts, Error> {
         if self.packed_vi() {
             let walk = |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk(l, r, a, depth);
-            return self.vi_square(scratch, buffers, walk);
+            return self.vi_square(scratch, buffers, walk, Narrow);
         }
-        let (sel, written, triangles) = self.select_into(scratch, buffers)?;
+        let (sel, written, triangles) = self.select_into(scratch, buffers, Narrow)?;
         let (bits, prefix) = split_scratch(scratch, self.g.len());
         let mut sink = ListSink {
             bits,
@@ -638,7 +638,25 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             // The closure inherits the function's target feature.
             let walk =
                 |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk_popcnt(l, r, a, depth);
-            return self.vi_square(scratch, buffers, walk);
+            return self.vi_square(scratch, buffers, walk, Narrow);
+        }
+        self.triangles_vi(scratch, buffers)
+    }
+
+    /// [`Self::triangles_vi_popcnt`] with the dense selection's bitmap filled a word at a time
+    /// in AVX-512 mask registers ([`Wide`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "popcnt,avx512f,avx512bw")]
+    #[inline]
+    fn triangles_vi_avx512<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
+        &self,
+        scratch: &mut [u64],
+        buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
+    ) -> Result<FrameCounts, Error> {
+        if self.packed_vi() {
+            let walk =
+                |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk_popcnt(l, r, a, depth);
+            return self.vi_square(scratch, buffers, walk, Wide);
         }
         self.triangles_vi(scratch, buffers)
     }
@@ -735,6 +753,115 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             return Err(UNINIT_VIEW);
         }
         self.triangles_vi_popcnt::<P, _, _>(scratch, buffers)
+    }
+
+    /// [`Self::triangles_popcnt`] compiled with AVX-512 as well (x86-64 only): the same
+    /// results, buffer for buffer. The view-independent selection then fills its bitmap of kept
+    /// vertices a word (64 errors) at a time in mask registers, about 4x the default build's
+    /// bitmap pass (0.05 against 0.2 ms on a 1025^2 grid, BENCHMARKS.md); the traversal is
+    /// [`Self::triangles_popcnt`]'s.
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support `popcnt`, `avx512f` and `avx512bw` (a `#[target_feature]`
+    /// function: calling it elsewhere is undefined behaviour; check each with
+    /// `is_x86_feature_detected!` on the std side). The function itself uses no `unsafe`.
+    ///
+    /// ```
+    /// # #[cfg(target_arch = "x86_64")] {
+    /// use relief_core::refine::{preprocess_compact, scratch_len, Criterion, Refiner};
+    /// use relief_core::Heightfield;
+    /// // 70 x 50 samples, compact errors, grid-coordinate vertices.
+    /// let s: Vec<f32> = (0..3500).map(|i| ((i * 7919) % 101) as f32 * 0.1).collect();
+    /// let hf = Heightfield::new(&s, 70, 50).unwrap();
+    /// let mut e = vec![0u16; 3500];
+    /// let h = preprocess_compact(&hf, &mut e).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(2.0)).unwrap();
+    /// let mut scratch = vec![0; scratch_len(70, 50)];
+    /// let c = rf.count(&mut scratch).unwrap();
+    /// let mut plain = (vec![[0u16; 2]; c.vertices], vec![[0u32; 3]; c.triangles]);
+    /// rf.triangles(&mut scratch, &mut plain.0, &mut plain.1).unwrap();
+    /// if std::is_x86_feature_detected!("popcnt")
+    ///     && std::is_x86_feature_detected!("avx512f")
+    ///     && std::is_x86_feature_detected!("avx512bw")
+    /// {
+    ///     let mut wide = (vec![[0u16; 2]; c.vertices], vec![[0u32; 3]; c.triangles]);
+    ///     // SAFETY: the CPU has popcnt, AVX-512F and AVX-512BW.
+    ///     let got = unsafe { rf.triangles_avx512(&mut scratch, &mut wide.0, &mut wide.1) };
+    ///     assert_eq!(got.unwrap(), c);
+    ///     assert_eq!(wide, plain);
+    /// }
+    /// # }
+    /// ```
+    #[cfg(target_arch = "x86_64")]
+    // Under `cfg_attr(not(doctest))` for the reason given at `triangles_popcnt`.
+    #[cfg_attr(not(doctest), target_feature(enable = "popcnt,avx512f,avx512bw"))]
+    pub fn triangles_avx512<P: MeshVertex>(
+        &self,
+        scratch: &mut [u64],
+        vertices: &mut [P],
+        triangles: &mut [[u32; 3]],
+    ) -> Result<FrameCounts, Error> {
+        if self.view.is_some() {
+            return self.triangles_view(scratch, vertices, triangles);
+        }
+        self.triangles_vi_avx512(scratch, |_| (vertices, triangles))
+    }
+
+    /// [`Self::triangles_uninit`] compiled with AVX-512, as [`Self::triangles_avx512`] is
+    /// [`Self::triangles`]: the same results, buffer for buffer; [`Error::Unsupported`] for a
+    /// view-dependent criterion, as there.
+    ///
+    /// # Safety
+    ///
+    /// As for [`Self::triangles_avx512`]: the CPU must support `popcnt`, `avx512f` and
+    /// `avx512bw`.
+    ///
+    /// ```
+    /// # #[cfg(target_arch = "x86_64")] {
+    /// use relief_core::refine::{preprocess, scratch_len, Criterion, Refiner};
+    /// use relief_core::Heightfield;
+    /// // Vectors grown to exactly the counts the selection finds.
+    /// let s: Vec<f32> = (0..33 * 33).map(|i| ((i * 31) % 17) as f32).collect();
+    /// let hf = Heightfield::new(&s, 33, 33).unwrap();
+    /// let (mut e, mut r) = (vec![0.0; 33 * 33], vec![0.0; 33 * 33]);
+    /// let h = preprocess(&hf, &mut e, &mut r).unwrap();
+    /// let rf = Refiner::new(&h, &hf, Criterion::MaxError(4.0)).unwrap();
+    /// let mut scratch = vec![0; scratch_len(33, 33)];
+    /// let (mut v, mut t): (Vec<[f32; 3]>, Vec<[u32; 3]>) = (Vec::new(), Vec::new());
+    /// if std::is_x86_feature_detected!("popcnt")
+    ///     && std::is_x86_feature_detected!("avx512f")
+    ///     && std::is_x86_feature_detected!("avx512bw")
+    /// {
+    ///     let (vr, tr) = (&mut v, &mut t);
+    ///     let grow = move |c: relief_core::refine::FrameCounts| {
+    ///         // Moved in, so the spare capacity may outlive the closure.
+    ///         let (v, t) = (vr, tr);
+    ///         v.reserve_exact(c.vertices);
+    ///         t.reserve_exact(c.triangles);
+    ///         (v.spare_capacity_mut(), t.spare_capacity_mut())
+    ///     };
+    ///     // SAFETY: the CPU has popcnt, AVX-512F and AVX-512BW.
+    ///     let c = unsafe { rf.triangles_uninit_avx512(&mut scratch, grow) }.unwrap();
+    ///     // SAFETY: the first `c.vertices` and `c.triangles` elements were written.
+    ///     unsafe { (v.set_len(c.vertices), t.set_len(c.triangles)) };
+    ///     assert_eq!(c, rf.count(&mut scratch).unwrap());
+    ///     assert!(t.iter().flatten().all(|&i| (i as usize) < v.len()));
+    /// }
+    /// # }
+    /// ```
+    #[cfg(target_arch = "x86_64")]
+    // Under `cfg_attr(not(doctest))` for the reason given at `triangles_popcnt`.
+    #[cfg_attr(not(doctest), target_feature(enable = "popcnt,avx512f,avx512bw"))]
+    pub fn triangles_uninit_avx512<'v, 'o, P: MeshVertex>(
+        &self,
+        scratch: &mut [u64],
+        buffers: impl FnOnce(FrameCounts) -> UninitBuffers<'v, 'o, P>,
+    ) -> Result<FrameCounts, Error> {
+        if self.view.is_some() {
+            return Err(UNINIT_VIEW);
+        }
+        self.triangles_vi_avx512::<P, _, _>(scratch, buffers)
     }
 
     /// The frame's triangles as indices into the whole sample grid, `y * width + x`,
@@ -996,13 +1123,14 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// from the triangles inside the domain ([`RefineGrid::walk_edge`], in the order of
     /// [`Self::walk_vi`]).
     #[inline(always)]
-    fn vi_square<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
+    fn vi_square<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o, F: Fill>(
         &self,
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
         walk: impl Fn(&mut ViSquare<'_, '_, O>, u64, u64, u64, u32),
+        fill: F,
     ) -> Result<FrameCounts, Error> {
-        let (sel, written, mut vs, depth) = self.vi_square_start(scratch, buffers)?;
+        let (sel, written, mut vs, depth) = self.vi_square_start(scratch, buffers, fill)?;
         if self.g.is_square() {
             for (l, r, a) in vs.roots() {
                 walk(&mut vs, l, r, a, depth);
@@ -1030,12 +1158,21 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// the traversal state and the roots' depth. The kept set is the bitmap (1 bit per vertex,
     /// cache-resident), so the traversal never touches the error array.
     #[inline(always)]
-    fn vi_square_start<'a, 'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
+    fn vi_square_start<
+        'a,
+        'v,
+        'o,
+        P: MeshVertex,
+        V: Slot<P> + 'v,
+        O: Slot<[u32; 3]> + 'o,
+        F: Fill,
+    >(
         &self,
         scratch: &'a mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
+        fill: F,
     ) -> Result<(Selection, usize, ViSquare<'a, 'o, O>, u32), Error> {
-        let (sel, written, triangles) = self.select_into(scratch, buffers)?;
+        let (sel, written, triangles) = self.select_into(scratch, buffers, fill)?;
         let c = sel.counts;
         let (bits, prefix) = split_scratch(scratch, self.g.len());
         let vs = ViSquare {
@@ -1066,13 +1203,14 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// is short) and writes the vertices; returns the selection, how many vertices were
     /// written and the triangle buffer.
     #[inline(always)]
-    fn select_into<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
+    fn select_into<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o, F: Fill>(
         &self,
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
+        _fill: F,
     ) -> Result<(Selection, usize, &'o mut [O]), Error> {
         self.fits_vertex::<P>()?;
-        let sel = self.select(scratch)?;
+        let sel = self.select_by::<F>(scratch)?;
         let c = sel.counts;
         let (vertices, triangles) = buffers(c);
         if let Err(e) = need(c.vertices, vertices.len()).and(need(c.triangles, triangles.len())) {
@@ -1247,6 +1385,13 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// other view-independent selection, writes the whole bitmap from the error array in one
     /// vectorised pass (the same vertices either way).
     pub(crate) fn select(&self, scratch: &mut [u64]) -> Result<Selection, Error> {
+        self.select_by::<Narrow>(scratch)
+    }
+
+    /// [`Self::select`] with the dense bitmap filled by `F` (inlined into its caller, so that
+    /// [`Wide`] is compiled with the caller's target features).
+    #[inline(always)]
+    fn select_by<F: Fill>(&self, scratch: &mut [u64]) -> Result<Selection, Error> {
         #[cfg(test)]
         if let (None, Some(limit)) = (self.view, VI_LIMIT.with(|c| c.get())) {
             return self.select_within(scratch, limit);
@@ -1258,7 +1403,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         } else {
             0
         };
-        self.select_within(scratch, limit)
+        self.select_within_by::<F>(scratch, limit)
     }
 
     /// Whether a view-independent mesh looks small enough for the sparse selection: at most 2
@@ -1286,7 +1431,20 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
     /// [`Self::select`] with the traversal's triangle budget: past `limit` triangles
     /// (view-independent, square grids; other grids always) the bitmap is written densely.
+    #[cfg(test)]
     pub(crate) fn select_within(
+        &self,
+        scratch: &mut [u64],
+        limit: usize,
+    ) -> Result<Selection, Error> {
+        self.select_within_by::<Narrow>(scratch, limit)
+    }
+
+    /// [`Self::select`] with the traversal's triangle budget `limit`, the dense bitmap filled by
+    /// `F` (see [`Self::select_by`]): past `limit` triangles (view-independent, square grids;
+    /// other grids always) the bitmap is written densely.
+    #[inline(always)]
+    fn select_within_by<F: Fill>(
         &self,
         scratch: &mut [u64],
         limit: usize,
@@ -1326,7 +1484,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
             // vertices are +inf). A triangulated rectangle has 2V - B - 2 triangles.
             let e = self.max_error;
             match self.h.errors {
-                ErrorStore::F32(errs) => fill_bits(bits, errs.get(..n).unwrap_or(errs), |&x| x > e),
+                ErrorStore::F32(errs) => F::fill(bits, errs.get(..n).unwrap_or(errs), |&x| x > e),
                 ErrorStore::Records(recs, layout) => {
                     let ce = bf16_floor_code(e);
                     let (w, h) = (self.g.width() as u64, self.g.height() as u64);
@@ -1349,7 +1507,7 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
                     // Codes are monotone in the error: compare codes with E's code, rounded
                     // so that code > c_e exactly when decode(code) > E.
                     let ce = bf16_floor_code(e);
-                    fill_bits(bits, errs.get(..n).unwrap_or(errs), |&c| c > ce)
+                    F::fill(bits, errs.get(..n).unwrap_or(errs), |&c| c > ce)
                 }
             }
             let border = self.border_count(bits);
@@ -2124,6 +2282,52 @@ pub(crate) fn split_scratch(scratch: &mut [u64], n: usize) -> (&mut [u64], &mut 
     let (bits, rest) = scratch.split_at_mut(words.min(scratch.len()));
     let prefix = rest.get_mut(..words).unwrap_or(&mut []);
     (bits, prefix)
+}
+
+/// How the dense view-independent selection turns errors into the kept bitmap.
+pub(crate) trait Fill: Copy {
+    /// Sets bit `k` of `bits` when `keep(values[k])`; words past the values are left as they
+    /// are.
+    fn fill<V>(bits: &mut [u64], values: &[V], keep: impl Fn(&V) -> bool);
+}
+
+/// Eight values at a time ([`fill_bits`]): the fastest form on the default x86-64 target,
+/// whose vector compares yield at most four bits at a time.
+#[derive(Clone, Copy)]
+pub(crate) struct Narrow;
+
+impl Fill for Narrow {
+    #[inline(always)]
+    fn fill<V>(bits: &mut [u64], values: &[V], keep: impl Fn(&V) -> bool) {
+        fill_bits(bits, values, keep)
+    }
+}
+
+/// A whole word at a time ([`fill_words`]): inlined into a function compiled with AVX-512
+/// (`avx512f` and `avx512bw`), the 64 compares become a few vector compares into mask
+/// registers, whose bits are the word: about 4x [`Narrow`] there on a 1025^2 grid of `f32` or
+/// `u16` errors, and about 2x slower than it without AVX-512 (BENCHMARKS.md). Only the AVX-512
+/// entry points use it.
+#[derive(Clone, Copy)]
+pub(crate) struct Wide;
+
+impl Fill for Wide {
+    #[inline(always)]
+    fn fill<V>(bits: &mut [u64], values: &[V], keep: impl Fn(&V) -> bool) {
+        fill_words(bits, values, keep)
+    }
+}
+
+/// [`fill_bits`] a whole word of values at a time (see [`Wide`]).
+#[inline(always)]
+fn fill_words<V>(bits: &mut [u64], values: &[V], keep: impl Fn(&V) -> bool) {
+    for (chunk, word) in values.chunks(64).zip(bits.iter_mut()) {
+        let mut b = 0u64;
+        for (k, v) in chunk.iter().enumerate() {
+            b |= u64::from(keep(v)) << k;
+        }
+        *word = b;
+    }
 }
 
 /// Sets bit `k` of the bitmap when `keep(values[k])`, 64 values per word. Whole words go eight
@@ -3124,7 +3328,7 @@ mod vi_domain_tests {
 
 #[cfg(test)]
 mod fill_tests {
-    use super::fill_bits;
+    use super::{Fill, Narrow, Wide};
 
     /// The bitmap one value at a time: bit `k` of word `k / 64` for every kept value.
     fn reference<V>(bits: &mut [u64], values: &[V], keep: impl Fn(&V) -> bool) {
@@ -3138,11 +3342,16 @@ mod fill_tests {
         }
     }
 
-    /// [`fill_bits`] sets the same bits as the value-by-value loop, on lengths around whole
-    /// words, with NaN, negative and infinite errors and every kind of bfloat16 code, and leaves
-    /// the words past the values alone.
+    /// [`Narrow`] ([`fill_bits`]) and [`Wide`] ([`fill_words`]) set the same bits as the
+    /// value-by-value loop, on lengths around whole words, with NaN, negative and infinite
+    /// errors and every kind of bfloat16 code, and leave the words past the values alone.
     #[test]
     fn fill_bits_matches_value_by_value() {
+        fill_matches_value_by_value::<Narrow>();
+        fill_matches_value_by_value::<Wide>();
+    }
+
+    fn fill_matches_value_by_value<F: Fill>() {
         let mut next = crate::refine::tests::rng(0x9e37_79b9_7f4a_7c15);
         for len in [0usize, 1, 7, 8, 63, 64, 65, 127, 128, 129, 1000, 4096] {
             let f: Vec<f32> = (0..len)
@@ -3158,13 +3367,13 @@ mod fill_tests {
             let words = len.div_ceil(64) + 2;
             for e in [0.0f32, 5.0, 9.99] {
                 let (mut a, mut b) = (vec![u64::MAX; words], vec![u64::MAX; words]);
-                fill_bits(&mut a, &f, |&v| v > e);
+                F::fill(&mut a, &f, |&v| v > e);
                 reference(&mut b, &f, |&v| v > e);
                 assert_eq!(a, b, "f32 len {len} e {e}");
             }
             for ce in [0u16, 0x40a0, 0x7f7f, 0xfffe] {
                 let (mut a, mut b) = (vec![u64::MAX; words], vec![u64::MAX; words]);
-                fill_bits(&mut a, &c, |&v| v > ce);
+                F::fill(&mut a, &c, |&v| v > ce);
                 reference(&mut b, &c, |&v| v > ce);
                 assert_eq!(a, b, "u16 len {len} ce {ce:#x}");
             }
