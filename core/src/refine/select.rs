@@ -757,9 +757,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
     /// [`Self::triangles_popcnt`] compiled with AVX-512 as well (x86-64 only): the same
     /// results, buffer for buffer. The view-independent selection then fills its bitmap of kept
-    /// vertices a word (64 errors) at a time in mask registers, about 4x the default build's
-    /// bitmap pass (0.05 against 0.2 ms on a 1025^2 grid, BENCHMARKS.md); the traversal is
-    /// [`Self::triangles_popcnt`]'s.
+    /// vertices a word (64 errors) at a time in mask registers; the traversal is
+    /// [`Self::triangles_popcnt`]'s. The pass over the errors is a fixed cost per grid sample,
+    /// so this matters most on coarse meshes of large grids: 1.07x on a 1025^2 grid at 305,547
+    /// triangles (BENCHMARKS.md).
     ///
     /// # Safety
     ///
@@ -2305,9 +2306,8 @@ impl Fill for Narrow {
 
 /// A whole word at a time ([`fill_words`]): inlined into a function compiled with AVX-512
 /// (`avx512f` and `avx512bw`), the 64 compares become a few vector compares into mask
-/// registers, whose bits are the word: about 4x [`Narrow`] there on a 1025^2 grid of `f32` or
-/// `u16` errors, and about 2x slower than it without AVX-512 (BENCHMARKS.md). Only the AVX-512
-/// entry points use it.
+/// registers, whose bits are the word. Without AVX-512 the same loop compiles to slower code
+/// than [`Narrow`]'s, so only the AVX-512 entry points use it.
 #[derive(Clone, Copy)]
 pub(crate) struct Wide;
 
