@@ -2,12 +2,12 @@
 //! Invariants: view-independent meshes are crack-free (the std crack checker of relief-tests) and
 //! their measured vertical error is at most E; view-dependent meshes without culling are
 //! crack-free, with culling they have no flipped or overlapping triangles; a buffer one element
-//! too small is an error, never a truncated mesh; `triangles_uninit` writes what `triangles`
-//! writes, and grid-coordinate vertices give the same triangles; both triangle strips are
-//! crack-free with or without culling (culled triangles drawn coarse), within `strip_bound`
-//! (and, on a square grid, within three indices of `strip_fewest_indices`),
-//! counted alike by their count functions, with one geomorph entry per vertex, and draw the
-//! list's triangles view-independently off the `(2^k+1)^2` square.
+//! too small is an error, never a truncated mesh; `triangles_uninit` and the `popcnt` and
+//! AVX-512 builds write what `triangles` writes, and grid-coordinate vertices give the same
+//! triangles; both triangle strips are crack-free with or without culling (culled triangles
+//! drawn coarse), within `strip_bound` (and, on a square grid, within three indices of
+//! `strip_fewest_indices`), counted alike by their count functions, with one geomorph entry
+//! per vertex, and draw the list's triangles view-independently off the `(2^k+1)^2` square.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -139,6 +139,25 @@ fuzz_target!(|data: &[u8]| {
     assert_eq!(gt, t);
     for (g, p) in gv.iter().zip(v) {
         assert_eq!([g[0] as f32 * dx, g[1] as f32 * dx], [p[0], p[1]]);
+    }
+    // The popcnt and AVX-512 builds, where the CPU has them: the same vertices and triangles.
+    #[cfg(target_arch = "x86_64")]
+    {
+        let popcnt = std::is_x86_feature_detected!("popcnt");
+        let avx512 = popcnt
+            && std::is_x86_feature_detected!("avx512f")
+            && std::is_x86_feature_detected!("avx512bw");
+        let (mut bv, mut bt) = (vec![[0.0f32; 3]; c.vertices], vec![[0u32; 3]; c.triangles]);
+        if popcnt {
+            // SAFETY: the CPU has popcnt.
+            let cb = unsafe { r.triangles_popcnt(&mut scratch, &mut bv, &mut bt) }.unwrap();
+            assert_eq!((cb, bits(&bv), &bt[..]), (c, bits(v), t));
+        }
+        if avx512 {
+            // SAFETY: the CPU has popcnt, AVX-512F and AVX-512BW.
+            let cb = unsafe { r.triangles_avx512(&mut scratch, &mut bv, &mut bt) }.unwrap();
+            assert_eq!((cb, bits(&bv), &bt[..]), (c, bits(v), t));
+        }
     }
     // One element too small: an error, not a silent truncation.
     if c.triangles > 0 {
