@@ -449,7 +449,7 @@ pub fn run(a: &MeshArgs) -> CliResult {
             "refine_ms": refine_ms,
             "refine_reused_ms": refine_reused_ms,
             "refine_fresh_repeat_ms": refine_fresh_repeat_ms,
-            "refine_build": extract_build(),
+            "refine_build": Build::detect().name(),
             "strip_length": strip.0.indices,
             "inout_strip": strip_json,
             "soar_strip": soar_json,
@@ -554,45 +554,56 @@ fn timed_refine<T: Terrain, P: MeshVertex + Default>(
     Ok((vertices, triangles, counts, times))
 }
 
-/// Whether the CPU runs `Refiner::triangles_avx512` and `triangles_uninit_avx512`.
-#[cfg(target_arch = "x86_64")]
-fn has_avx512() -> bool {
-    std::is_x86_feature_detected!("popcnt")
-        && std::is_x86_feature_detected!("avx512f")
-        && std::is_x86_feature_detected!("avx512bw")
-}
-
-/// Which build of the extraction [`extract`] and [`extract_uninit`] run on this CPU:
-/// `"avx512"`, `"popcnt"` or `"default"` (`refine_build` in the JSON).
-fn extract_build() -> &'static str {
+/// The build of the extraction this CPU runs, best first: the AVX-512 one (`popcnt`,
+/// `avx512f`, `avx512bw`), the `popcnt` one, or the default one.
+#[derive(Clone, Copy)]
+enum Build {
     #[cfg(target_arch = "x86_64")]
-    if has_avx512() {
-        return "avx512";
-    } else if std::is_x86_feature_detected!("popcnt") {
-        return "popcnt";
-    }
-    "default"
+    Avx512,
+    #[cfg(target_arch = "x86_64")]
+    Popcnt,
+    Default,
 }
 
-/// `Refiner::triangles`, with its AVX-512 or `popcnt` build where the CPU has them (same
-/// output).
+impl Build {
+    fn detect() -> Build {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("popcnt") {
+            let avx512 = std::is_x86_feature_detected!("avx512f")
+                && std::is_x86_feature_detected!("avx512bw");
+            return if avx512 { Build::Avx512 } else { Build::Popcnt };
+        }
+        Build::Default
+    }
+
+    /// Its name in the JSON (`refine_build`).
+    fn name(self) -> &'static str {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            Build::Avx512 => "avx512",
+            #[cfg(target_arch = "x86_64")]
+            Build::Popcnt => "popcnt",
+            Build::Default => "default",
+        }
+    }
+}
+
+/// `Refiner::triangles` in the build [`Build::detect`] picks (same output).
 fn extract<T: Terrain, P: MeshVertex>(
     r: &Refiner<'_, '_, T>,
     scratch: &mut [u64],
     vertices: &mut [P],
     triangles: &mut [[u32; 3]],
 ) -> CliResult<FrameCounts> {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx512() {
+    Ok(match Build::detect() {
         // SAFETY: the CPU has popcnt, AVX-512F and AVX-512BW.
-        return Ok(unsafe { r.triangles_avx512(scratch, vertices, triangles) }?);
-    }
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("popcnt") {
+        #[cfg(target_arch = "x86_64")]
+        Build::Avx512 => unsafe { r.triangles_avx512(scratch, vertices, triangles) }?,
         // SAFETY: the CPU has popcnt.
-        return Ok(unsafe { r.triangles_popcnt(scratch, vertices, triangles) }?);
-    }
-    Ok(r.triangles(scratch, vertices, triangles)?)
+        #[cfg(target_arch = "x86_64")]
+        Build::Popcnt => unsafe { r.triangles_popcnt(scratch, vertices, triangles) }?,
+        Build::Default => r.triangles(scratch, vertices, triangles)?,
+    })
 }
 
 /// The view-independent list into `vertices` and `triangles`, emptied, then grown to exactly the
@@ -615,18 +626,15 @@ fn extract_uninit<T: Terrain, P: MeshVertex>(
         t.reserve_exact(c.triangles);
         (v.spare_capacity_mut(), t.spare_capacity_mut())
     };
-    #[cfg(target_arch = "x86_64")]
-    let c = if has_avx512() {
+    let c = match Build::detect() {
         // SAFETY: the CPU has popcnt, AVX-512F and AVX-512BW.
-        unsafe { r.triangles_uninit_avx512(scratch, buffers) }?
-    } else if std::is_x86_feature_detected!("popcnt") {
+        #[cfg(target_arch = "x86_64")]
+        Build::Avx512 => unsafe { r.triangles_uninit_avx512(scratch, buffers) }?,
         // SAFETY: the CPU has popcnt.
-        unsafe { r.triangles_uninit_popcnt(scratch, buffers) }?
-    } else {
-        r.triangles_uninit(scratch, buffers)?
+        #[cfg(target_arch = "x86_64")]
+        Build::Popcnt => unsafe { r.triangles_uninit_popcnt(scratch, buffers) }?,
+        Build::Default => r.triangles_uninit(scratch, buffers)?,
     };
-    #[cfg(not(target_arch = "x86_64"))]
-    let c = r.triangles_uninit(scratch, buffers)?;
     // SAFETY: on `Ok(c)`, `triangles_uninit` has written the first `c.vertices` elements of the
     // vertices' spare capacity and the first `c.triangles` of the triangles' (it checks its
     // counts against its selection and returns an error otherwise), and the capacities hold them

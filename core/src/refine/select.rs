@@ -532,7 +532,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         if self.view.is_some() {
             return self.triangles_view(scratch, vertices, triangles);
         }
-        self.triangles_vi(scratch, |_| (vertices, triangles))
+        let walk = |vs: &mut ViSquare<'_, '_, [u32; 3]>, l, r, a, d| vs.walk(l, r, a, d);
+        self.triangles_vi(scratch, |_| (vertices, triangles), walk, Narrow)
     }
 
     /// [`Self::triangles`] into uninitialised buffers, for the view-independent criterion, sized
@@ -584,21 +585,26 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         if self.view.is_some() {
             return Err(UNINIT_VIEW);
         }
-        self.triangles_vi::<P, _, _>(scratch, buffers)
+        let walk = |vs: &mut ViSquare<'_, '_, _>, l, r, a, d| vs.walk(l, r, a, d);
+        self.triangles_vi::<P, _, _, _>(scratch, buffers, walk, Narrow)
     }
 
     /// The view-independent list into either kind of slot ([`Slot`]), into the buffers
     /// `buffers` returns for the selection's counts: what [`Self::triangles`] and
-    /// [`Self::triangles_uninit`] run.
+    /// [`Self::triangles_uninit`] run, and their `popcnt` and AVX-512 builds, each with its
+    /// build of the packed walk ([`ViSquare`], grids of fewer than `2^32` samples) as `walk`
+    /// and of the dense selection as `fill` (inlined into the caller, whose target features
+    /// both then take).
     #[inline(always)]
-    fn triangles_vi<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o>(
+    fn triangles_vi<'v, 'o, P: MeshVertex, V: Slot<P> + 'v, O: Slot<[u32; 3]> + 'o, F: Fill>(
         &self,
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
+        walk: impl Fn(&mut ViSquare<'_, '_, O>, u64, u64, u64, u32),
+        fill: F,
     ) -> Result<FrameCounts, Error> {
         if self.packed_vi() {
-            let walk = |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk(l, r, a, depth);
-            return self.vi_square(scratch, buffers, walk, Narrow);
+            return self.vi_square(scratch, buffers, walk, fill);
         }
         let (sel, written, triangles) = self.select_into(scratch, buffers, Narrow)?;
         let (bits, prefix) = split_scratch(scratch, self.g.len());
@@ -625,7 +631,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     }
 
     /// [`Self::triangles_vi`] with the packed walk ([`ViSquare`]) compiled with `popcnt`
-    /// (x86-64 only; the CPU must have the instruction).
+    /// (x86-64 only; the CPU must have the instruction). The closure inherits the function's
+    /// target feature.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "popcnt")]
     #[inline]
@@ -634,13 +641,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
     ) -> Result<FrameCounts, Error> {
-        if self.packed_vi() {
-            // The closure inherits the function's target feature.
-            let walk =
-                |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk_popcnt(l, r, a, depth);
-            return self.vi_square(scratch, buffers, walk, Narrow);
-        }
-        self.triangles_vi(scratch, buffers)
+        let walk = |vs: &mut ViSquare<'_, '_, O>, l, r, a, d| vs.walk_popcnt(l, r, a, d);
+        self.triangles_vi(scratch, buffers, walk, Narrow)
     }
 
     /// [`Self::triangles_vi_popcnt`] with the dense selection's bitmap filled a word at a time
@@ -653,12 +655,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         scratch: &mut [u64],
         buffers: impl FnOnce(FrameCounts) -> (&'v mut [V], &'o mut [O]),
     ) -> Result<FrameCounts, Error> {
-        if self.packed_vi() {
-            let walk =
-                |vs: &mut ViSquare<'_, '_, O>, l, r, a, depth| vs.walk_popcnt(l, r, a, depth);
-            return self.vi_square(scratch, buffers, walk, Wide);
-        }
-        self.triangles_vi(scratch, buffers)
+        let walk = |vs: &mut ViSquare<'_, '_, O>, l, r, a, d| vs.walk_popcnt(l, r, a, d);
+        self.triangles_vi(scratch, buffers, walk, Wide)
     }
 
     /// [`Self::triangles`] compiled with the x86-64 `popcnt` instruction (x86-64 only): the same
@@ -2308,9 +2306,11 @@ impl Fill for Narrow {
 /// (`avx512f` and `avx512bw`), the 64 compares become a few vector compares into mask
 /// registers, whose bits are the word. Without AVX-512 the same loop compiles to slower code
 /// than [`Narrow`]'s, so only the AVX-512 entry points use it.
+#[cfg(any(target_arch = "x86_64", test))]
 #[derive(Clone, Copy)]
 pub(crate) struct Wide;
 
+#[cfg(any(target_arch = "x86_64", test))]
 impl Fill for Wide {
     #[inline(always)]
     fn fill<V>(bits: &mut [u64], values: &[V], keep: impl Fn(&V) -> bool) {
@@ -2319,6 +2319,7 @@ impl Fill for Wide {
 }
 
 /// [`fill_bits`] a whole word of values at a time (see [`Wide`]).
+#[cfg(any(target_arch = "x86_64", test))]
 #[inline(always)]
 fn fill_words<V>(bits: &mut [u64], values: &[V], keep: impl Fn(&V) -> bool) {
     for (chunk, word) in values.chunks(64).zip(bits.iter_mut()) {
