@@ -20,9 +20,11 @@
 //!   triangle of a kind for 64 vertices at once and numbers vertices through a grid-sized map
 //!   (`Vi::by_padded`, `Vi::by_mask`). `CLASSES=1` prints the kept vertices by level.
 //!
-//! All of them give the library's triangles (asserted on each case; the two depth-first forms in
-//! the library's order). Timed: each alone over the same bitmap, fastest of `RUNS`, bitmap
-//! and output warm; the library's whole `triangles_popcnt` (selection and vertices included)
+//! All of them give the library's triangles (asserted on each case, as sets). The library
+//! itself writes dense meshes row by row since 2026-12-07 (by masks without the map, each
+//! vertex numbered by its rank: `core/src/refine/select/rows.rs`), so its column is that form
+//! where at least a tenth of the samples are kept. Timed: each alone over the same bitmap,
+//! fastest of `RUNS`, bitmap and output warm; the library's whole `triangles_popcnt` (selection and vertices included)
 //! for scale; and writing the same number of triangles with nothing else, the floor of any
 //! extraction into that buffer. Bundled Puget Sound DEM, E = 1, 5, 20 and 50 m.
 //!
@@ -839,18 +841,17 @@ fn main() {
             unsafe { vi.by_vertex() };
             vi.o.n
         };
-        assert_eq!(run_dfs(&mut o1), nt);
-        assert!(o1[..nt] == want[..], "depth first differs from the library");
-        assert_eq!(run_known(&mut o1), nt);
-        assert!(o1[..nt] == want[..], "known splits differ from the library");
         want.sort_unstable();
-        // The other forms write the same triangles in another order.
+        // The library writes dense meshes row by row since 2026-12-07, so every form is
+        // compared as a set.
         let same_set = |n: usize, o: &[[u32; 3]], form: &str| {
             assert_eq!(n, nt, "{form}: other count");
             let mut got = o[..nt].to_vec();
             got.sort_unstable();
             assert!(got == want, "{form} gives other triangles");
         };
+        same_set(run_dfs(&mut o1), &o1, "depth first");
+        same_set(run_known(&mut o1), &o1, "known splits");
         same_set(run_blocks(&mut o2), &o2, "blocks");
         same_set(run_vertex(&mut o3), &o3, "by vertex");
         same_set(run_pad(&mut o5), &o5, "by padded rows");

@@ -37,7 +37,7 @@ fn refine<T: Terrain>(h: &Hierarchy<'_>, t: &T, c: Criterion) -> Mesh {
     assert_eq!(r.triangles(&mut s, &mut v, &mut tr).unwrap(), n);
     same_with_popcnt(&r, &mut s, &v, &tr);
     same_uninit(&r, &mut s, &v, &tr, matches!(c, Criterion::MaxError(_)));
-    same_as_grid_triangles(&r, t, &v, &tr);
+    same_as_grid_triangles(&r, t, &v, &tr, matches!(c, Criterion::View(_)));
     same_as_grid_vertices(&r, t, &mut s, &v, &tr, matches!(c, Criterion::MaxError(_)));
     Mesh { v, t: tr }
 }
@@ -125,28 +125,43 @@ fn same_as_grid_vertices<T: Terrain>(
     }
 }
 
-/// `grid_triangles` gives the indexed list's triangles in its order, each corner as the grid
-/// index of its vertex, and refuses a buffer one element short.
+/// `grid_triangles` gives the indexed list's triangles, each corner as the grid index of its
+/// vertex (corners in the same order), in the list's order where `same_order` (view-dependent
+/// frames; a view-independent list may be written row by row, see `Refiner::grid_triangles`),
+/// and refuses a buffer one element short.
 fn same_as_grid_triangles<T: Terrain>(
     r: &Refiner<'_, '_, T>,
     t: &T,
     v: &[[f32; 3]],
     tr: &[[u32; 3]],
+    same_order: bool,
 ) {
     let mut g = vec![[u32::MAX; 3]; tr.len()];
     assert_eq!(r.grid_triangles(&mut g).unwrap(), tr.len());
     let s = t.scale();
     let w = t.width();
-    for (gt, lt) in g.iter().zip(tr) {
-        for (&gi, &li) in gt.iter().zip(lt) {
-            let p = v[li as usize];
-            let (x, y) = (gi % w, gi / w);
-            assert_eq!(
-                ((p[0] / s.dx).round() as u32, (p[1] / s.dy).round() as u32),
-                (x, y)
-            );
-            assert_eq!(p[2].to_bits(), t.z(x, y).to_bits());
-        }
+    // The list's triangles with grid-index corners (each vertex checked against its sample).
+    let mut listed: Vec<[u32; 3]> = tr
+        .iter()
+        .map(|lt| {
+            lt.map(|li| {
+                let p = v[li as usize];
+                let (x, y) = ((p[0] / s.dx).round() as u32, (p[1] / s.dy).round() as u32);
+                assert_eq!(p[2].to_bits(), t.z(x, y).to_bits());
+                y * w + x
+            })
+        })
+        .collect();
+    if same_order {
+        assert!(
+            g == listed,
+            "grid_triangles: not the list's triangles in its order"
+        );
+    } else {
+        let mut got = g.clone();
+        got.sort_unstable();
+        listed.sort_unstable();
+        assert!(got == listed, "grid_triangles: not the list's triangles");
     }
     if let Some(short) = tr.len().checked_sub(1) {
         assert!(matches!(

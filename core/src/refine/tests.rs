@@ -709,7 +709,9 @@ proptest! {
             prop_assert_eq!(again.counts, sa.counts);
             r.release(&mut a, again);
             // Whole meshes: dense from a zeroed scratch against sparse from a released and
-            // from a garbage one.
+            // from a garbage one, all walked (a dense selection may write a dense mesh row by
+            // row, a sparse one never does: `rows_and_walk_write_the_same_triangles`).
+            select::VI_ROWS.with(|c| c.set(Some(false)));
             select::VI_LIMIT.with(|c| c.set(Some(0)));
             let m = list(hier, &hf, Criterion::MaxError(e));
             select::VI_LIMIT.with(|c| c.set(Some(usize::MAX)));
@@ -719,6 +721,7 @@ proptest! {
             let (mut v2, mut t2) = (v.clone(), t.clone());
             let ok2 = r.triangles(&mut g, &mut v2, &mut t2).is_ok();
             select::VI_LIMIT.with(|c| c.set(None));
+            select::VI_ROWS.with(|c| c.set(None));
             prop_assert!(ok && ok2);
             prop_assert_eq!((&v, &t), (&m.v, &m.t));
             prop_assert_eq!((&v2, &t2), (&m.v, &m.t));
@@ -747,6 +750,59 @@ proptest! {
             };
             let (first, second) = (out(&mut z), out(&mut g));
             prop_assert!(first == second);
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    /// Dense view-independent meshes of square grids written row by row are the walk's mesh:
+    /// the same vertices, the same triangles (each with the same corners in the same order) in
+    /// another order, for every error store, sizes from 2^2 to 257^2 (rows of one to five
+    /// words, the last column at every position of a word's first bits) and kept shares from
+    /// everything to almost nothing; and the row-by-row mesh is a mesh of the grid in its own
+    /// right (counter-clockwise, the domain's area, within E by the full-grid scan).
+    #[test]
+    fn rows_and_walk_write_the_same_triangles(
+        k in 0u32..9, seed in 1u64..1000, amp in 0.0f32..100.0, frac in 0.0f32..1.0,
+        quant in prop::bool::ANY,
+    ) {
+        let w = (1u32 << k) + 1;
+        let mut s = grid(w, w, seed, amp);
+        if quant {
+            for v in &mut s { *v = (*v * 10.0).round() / 10.0; }
+        }
+        let e = frac * frac * amp;
+        let hf = Heightfield::new(&s, w, w).unwrap();
+        let n = hierarchy_len(w, w);
+        let (mut er, mut ra) = (vec![0.0; n], vec![0.0; n]);
+        let full = preprocess(&hf, &mut er, &mut ra).unwrap();
+        let mut ec = vec![0u16; n];
+        let compact = preprocess_compact(&hf, &mut ec).unwrap();
+        let mut lin = vec![VertexRecord::default(); records_len(w, w, RecordLayout::Linear)];
+        let lin = pack_records(&full, &hf, RecordLayout::Linear, &mut lin).unwrap();
+        let mut il = vec![VertexRecord::default(); records_len(w, w, RecordLayout::Interleaved)];
+        let il = pack_records(&full, &hf, RecordLayout::Interleaved, &mut il).unwrap();
+        for hier in [&full, &compact, &lin, &il] {
+            let by = |rows: bool| {
+                select::VI_ROWS.with(|c| c.set(Some(rows)));
+                select::VI_LIMIT.with(|c| c.set(Some(0)));
+                let m = list(hier, &hf, Criterion::MaxError(e));
+                select::VI_ROWS.with(|c| c.set(None));
+                select::VI_LIMIT.with(|c| c.set(None));
+                m
+            };
+            let (walk, rows) = (by(false), by(true));
+            prop_assert_eq!(&walk.v, &rows.v);
+            let sorted = |t: &[[u32; 3]]| {
+                let mut t = t.to_vec();
+                t.sort_unstable();
+                t
+            };
+            prop_assert_eq!(sorted(&walk.t), sorted(&rows.t));
+            prop_assert!(ccw(&rows));
+            prop_assert!((area(&rows) - f64::from((w - 1) * (w - 1))).abs() < 1e-6);
+            prop_assert!(scan(&hf, &rows) <= f64::from(e) + 1e-4);
         }
     }
 }
