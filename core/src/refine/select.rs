@@ -508,7 +508,10 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
 
     /// The indexed triangle list: fills `vertices` (world positions `[f32; 3]`, or grid
     /// coordinates `[u16; 2]`: see [`MeshVertex`]) and `triangles` (indices into `vertices`,
-    /// counter-clockwise seen from +z) and returns the counts.
+    /// counter-clockwise seen from +z) and returns the counts. Vertices are numbered as
+    /// [`Refiner`] says; triangles come depth first down the hierarchy, except a
+    /// view-independent mesh of a square grid that keeps at least a tenth of the samples,
+    /// which is written row by row (the same for every build and entry point).
     /// [`Error::BufferTooSmall`] if either buffer is too small (view-independent: nothing
     /// written; view-dependent: the buffers' contents are unspecified);
     /// [`Error::SizeOverflow`] if the grid's coordinates do not fit the vertex type.
@@ -871,9 +874,8 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// with the heights), so nothing is renumbered and no vertex is written per frame. The
     /// triangles come in the list's order too, except for a view-independent mesh of a square
     /// grid that keeps at least a tenth of the samples, which [`Self::triangles`] writes row by
-    /// row (faster there) and this walks. One
-    /// traversal, no scratch: a vertex that both triangles of its diamond reach is decided
-    /// twice, with the same answer (nested errors and bounding spheres make the decision the
+    /// row (faster there) and this walks. One traversal, no scratch: a vertex that both
+    /// triangles of its diamond reach is decided twice, with the same answer (nested errors and bounding spheres make the decision the
     /// vertex's own; [`Self::triangles`] skips the second one). Returns the triangle count;
     /// [`Error::BufferTooSmall`] if `triangles` is shorter (its contents are then unspecified),
     /// [`Error::SizeOverflow`] for a grid of more than `2^32` samples.

@@ -18,10 +18,10 @@
 //! the word of kept vertices of the kind less the word of their split vertices, read at the
 //! split's offset. Vertices are numbered by rank: for the 64 columns of one word,
 //! `rank(q + x) = rank(q) + popcount(bits(q .. q + 64) & (2^x - 1))`, one window per corner
-//! and word. On Big Tujunga (513^2, E = 5 m, 28% of the samples kept) this was 1.6x the
-//! recursive walk, but on sparse meshes it pays for every word of every pass
-//! (`benches/examples/vi_bfs.rs`, BENCHMARKS.md): [`Refiner`](super::Refiner) takes it for
-//! dense selections only.
+//! and word. On Big Tujunga (513^2, E = 5 m, 28% of the samples kept) the extraction took
+//! 1.36x less time than by the recursive walk, but on sparse meshes a pass pays for every word
+//! of the row (`bench-peers/martini/ab_mesh.sh`, BENCHMARKS.md): [`Refiner`](super::Refiner)
+//! takes it for dense selections only.
 
 use super::{Slot, ViSquare, IDX};
 
