@@ -875,8 +875,9 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
     /// triangles come in the list's order too, except for a view-independent mesh of a square
     /// grid that keeps at least a tenth of the samples, which [`Self::triangles`] writes row by
     /// row (faster there) and this walks. One traversal, no scratch: a vertex that both
-    /// triangles of its diamond reach is decided twice, with the same answer (nested errors and bounding spheres make the decision the
-    /// vertex's own; [`Self::triangles`] skips the second one). Returns the triangle count;
+    /// triangles of its diamond reach is decided twice, with the same answer (nested errors and
+    /// bounding spheres make the decision the vertex's own; [`Self::triangles`] skips the
+    /// second one). Returns the triangle count;
     /// [`Error::BufferTooSmall`] if `triangles` is shorter (its contents are then unspecified),
     /// [`Error::SizeOverflow`] for a grid of more than `2^32` samples.
     ///
@@ -1138,11 +1139,13 @@ impl<'h, 't, T: Terrain> Refiner<'h, 't, T> {
         fill: F,
     ) -> Result<FrameCounts, Error> {
         let (sel, written, mut vs, depth) = self.vi_square_start(scratch, buffers, fill)?;
-        if self.g.is_square() && by_rows(&sel, self.g.len()) {
-            vs.rows();
-        } else if self.g.is_square() {
-            for (l, r, a) in vs.roots() {
-                walk(&mut vs, l, r, a, depth);
+        if self.g.is_square() {
+            if by_rows(&sel, self.g.len()) {
+                vs.rows();
+            } else {
+                for (l, r, a) in vs.roots() {
+                    walk(&mut vs, l, r, a, depth);
+                }
             }
         } else {
             // The triangles inside the domain, their corners packed by row-major index (a
@@ -2104,11 +2107,10 @@ const VI_ROWS_SHARE: usize = 10;
 /// Whether [`Refiner::vi_square`] writes the mesh of a square grid row by row: dense selections
 /// (whose rank prefix is valid for every word) with a large kept share.
 fn by_rows(sel: &Selection, samples: usize) -> bool {
+    let share = || sel.counts.vertices.saturating_mul(VI_ROWS_SHARE) >= samples;
     #[cfg(test)]
-    if let Some(rows) = VI_ROWS.with(|c| c.get()) {
-        return rows && !sel.sparse;
-    }
-    !sel.sparse && sel.counts.vertices.saturating_mul(VI_ROWS_SHARE) >= samples
+    let share = || VI_ROWS.with(|c| c.get()).unwrap_or_else(share);
+    !sel.sparse && share()
 }
 
 #[cfg(test)]
