@@ -5,7 +5,7 @@ usage: embree_trace.py RELIEF_BIN RAW.f32 W H DX DY VIEW WxH METHOD ROUNDS
 
 METHOD is a `relief trace --method` name, or `maxmip-scalar` for max-mip ray by ray
 (`--method maxmip --no-packet`; plain `maxmip` uses the AVX-512 packet path where the CPU has it),
-or `maxmip-wide` for max-mip ray by ray through sixteen-wide nodes (`--no-packet --wide`, AVX-512F).
+or `maxmip-wide` for max-mip ray by ray through sixteen-wide nodes (`--no-packet --wide`: AVX-512F, else AVX2, else portable lanes).
 
 RAW.f32 holds the heights in world units (make it with dem_to_raw.py; for the bundled Puget
 Sound PNG scale by 0.1 first or pass the PNG values and accept z in decimetres). VIEW is

@@ -7,7 +7,7 @@ same depth image. No Embree run: for changes to the walk, where the image must n
 usage (from the repository root, with the venv of embree_rays.sh, which has numpy and embreex):
     /tmp/venv-embree/bin/python bench-peers/maxmip_ab.py BIN_A BIN_B [BIN_A BIN_B ...]
 env: PACKET=1 times the AVX-512 packets (default: ray by ray, `--no-packet`); WIDE=1 ray by ray
-through sixteen-wide nodes (`--no-packet --wide`, AVX-512F); ONLY="puget fuji"
+through sixteen-wide nodes (`--no-packet --wide`, the best form for the CPU); ONLY="puget fuji"
 limits the DEMs; VIEWS="camera grazing low" picks the views (default camera and grazing;
 `low` is embree_trace.py's level view from just above the ground); SURFACE=bilinear (plane, nearest) traces another surface; SHOW=1 prints each
 view's `relief trace` command (for profiling one view by hand); the DEMs' raw files are kept

@@ -25,7 +25,7 @@ use relief_core::glam::{DVec2, Vec3};
 use relief_core::ray::{
     GridLine, MarchOptions, MaxMip, Ray, RayTracer, RunAccel, Trace, PACKET_LANES,
 };
-use relief_core::{Camera, Surface};
+use relief_core::{Camera, Heightfield, Surface};
 use std::hint::black_box;
 use std::path::Path;
 
@@ -261,15 +261,12 @@ fn tracing(c: &mut Criterion) {
                 hits
             })
         });
-        #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx512f") {
-            g.bench_function("maxmip-wide", |b| {
+        for (label, wide) in wide_forms(&tracer, &mip) {
+            g.bench_function(label, |b| {
                 b.iter(|| {
                     let mut hits = 0u32;
                     for r in &rays {
-                        // SAFETY: AVX-512F detected above.
-                        let t = unsafe { tracer.trace_maxmip_wide_avx512(black_box(r), &mip) };
-                        hits += t.unwrap().hit.is_some() as u32;
+                        hits += wide(black_box(r)).hit.is_some() as u32;
                     }
                     hits
                 })
@@ -277,6 +274,38 @@ fn tracing(c: &mut Criterion) {
         }
         g.finish();
     }
+}
+
+/// One sixteen-wide walk of a view's rays.
+type Wide<'a> = Box<dyn Fn(&Ray) -> Trace + 'a>;
+
+/// The sixteen-wide walk in every form this CPU runs: the portable one, and AVX2 and AVX-512
+/// where detected.
+fn wide_forms<'a>(
+    tracer: &'a RayTracer<'a, Heightfield<'a, f32>>,
+    mip: &'a MaxMip<'a>,
+) -> Vec<(&'static str, Wide<'a>)> {
+    let mut wides: Vec<(&str, Wide)> = vec![(
+        "maxmip-wide-portable",
+        Box::new(|r: &Ray| tracer.trace_maxmip_wide(r, mip).unwrap()),
+    )];
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        wides.push((
+            "maxmip-wide-avx2",
+            // SAFETY: AVX2 detected above.
+            Box::new(|r: &Ray| unsafe { tracer.trace_maxmip_wide_avx2(r, mip) }.unwrap()),
+        ));
+    }
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx512f") {
+        wides.push((
+            "maxmip-wide",
+            // SAFETY: AVX-512F detected above.
+            Box::new(|r: &Ray| unsafe { tracer.trace_maxmip_wide_avx512(r, mip) }.unwrap()),
+        ));
+    }
+    wides
 }
 
 /// Fastest round of A and of B (seconds) and their ratio, alternating A and B.
@@ -619,10 +648,9 @@ fn mip_table() {
             );
             rows(&format!("packet of {PACKET_LANES}, AVX-512"), whole, chunks);
         }
-        #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx512f") {
-            // SAFETY (the closure and the check): AVX-512F detected above.
-            let wide = |r: &Ray| unsafe { tracer.trace_maxmip_wide_avx512(r, &mip) }.unwrap();
+        // The sixteen-wide walk in every form this CPU runs.
+        let wides = wide_forms(&tracer, &mip);
+        for (label, wide) in &wides {
             for (r, s) in rays.iter().zip(&scalar) {
                 let w = wide(r);
                 assert_eq!(w.hit, s.hit, "the wide walk's hit differs from ray by ray");
@@ -637,7 +665,7 @@ fn mip_table() {
                 |rg| by_ray(&rays[rg]),
                 |rg| by_wide(&rays[rg]),
             );
-            rows("sixteen-wide walk, AVX-512", whole, chunks);
+            rows(&format!("sixteen-wide walk, {label}"), whole, chunks);
         }
     }
 }

@@ -97,14 +97,20 @@ fuzz_target!(|data: &[u8]| {
         assert_eq!(simd, out);
     }
     // The sixteen-wide walk: the same hit, the same cells tested or fewer (cells the ray only
-    // touches at a point are skipped).
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx512f") {
-        for (r, t) in rays.iter().zip(&out) {
+    // touches at a point are skipped); its AVX2 and AVX-512 forms the portable one's traces.
+    for (r, t) in rays.iter().zip(&out) {
+        let wide = tracer.trace_maxmip_wide(r, &mip).unwrap();
+        assert_eq!(wide.hit, t.hit);
+        assert!(wide.cells <= t.cells, "{wide:?} {t:?}");
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2.
+            assert_eq!(unsafe { tracer.trace_maxmip_wide_avx2(r, &mip) }.unwrap(), wide);
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx512f") {
             // SAFETY: the CPU has AVX-512F.
-            let wide = unsafe { tracer.trace_maxmip_wide_avx512(r, &mip) }.unwrap();
-            assert_eq!(wide.hit, t.hit);
-            assert!(wide.cells <= t.cells, "{wide:?} {t:?}");
+            assert_eq!(unsafe { tracer.trace_maxmip_wide_avx512(r, &mip) }.unwrap(), wide);
         }
     }
     let ext = (f64::from(w - 1), f64::from(h - 1));

@@ -5,14 +5,16 @@
 //! HARD_CASES.md (vertices, grid lines, diagonals, axis-aligned, straight down, grazing,
 //! starting inside, horizontal above the terrain, subnormal direction components, offsets of 1e6, tiny and huge height
 //! scales, 2 x 2 grids), in packets of every length around the lane count, and on a pyramid
-//! too tall for the AVX-512 lane tables. The sixteen-wide walk (`trace_maxmip_wide_avx512`,
-//! where the CPU has AVX-512F) gives the same hits (bit for bit) on all of these rays and
-//! tests the same cells or fewer (its step counts differ: nodes, not neighbour steps); the grids include
-//! pyramids with an even and an odd number of levels above the cells, and a single cell.
+//! too tall for the AVX-512 lane tables. The sixteen-wide walk (`trace_maxmip_wide`, and
+//! `trace_maxmip_wide_avx2` / `trace_maxmip_wide_avx512` where the CPU has AVX2 / AVX-512F, each
+//! giving exactly the portable form's traces) gives the same hits (bit for bit) on all of these
+//! rays and tests the same cells or fewer (its step counts differ: nodes, not neighbour steps);
+//! the grids include pyramids with an even and an odd number of levels above the cells, and a
+//! single cell.
 
 use relief_core::glam::{DVec3, Vec3};
 use relief_core::ray::{MaxMip, Ray, RayTracer, Trace, PACKET_LANES};
-use relief_core::{Heightfield, Scale, Surface};
+use relief_core::{Error, Heightfield, Scale, Surface};
 use relief_tests::fixtures::{puget, puget_views};
 
 const SURFACES: [Surface; 4] = [
@@ -61,6 +63,32 @@ fn packet_variants(
     v
 }
 
+/// One sixteen-wide walk.
+type WideFn = fn(&RayTracer<'_, Heightfield<'_, f32>>, &Ray, &MaxMip<'_>) -> Result<Trace, Error>;
+
+/// Every form of the sixteen-wide walk this CPU runs: the portable one always, the AVX2 and
+/// AVX-512 ones where the CPU has them. Each must give the same trace as the portable one.
+fn wide_variants() -> Vec<(&'static str, WideFn)> {
+    let mut v: Vec<(&'static str, WideFn)> =
+        vec![("wide portable", |t, r, m| t.trace_maxmip_wide(r, m))];
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::is_x86_feature_detected!("avx2") {
+            // SAFETY: called only where the CPU has AVX2.
+            v.push(("wide avx2", |t, r, m| unsafe {
+                t.trace_maxmip_wide_avx2(r, m)
+            }));
+        }
+        if std::is_x86_feature_detected!("avx512f") {
+            // SAFETY: called only where the CPU has AVX-512F.
+            v.push(("wide avx512", |t, r, m| unsafe {
+                t.trace_maxmip_wide_avx512(r, m)
+            }));
+        }
+    }
+    v
+}
+
 /// Asserts every packet variant equals ray-by-ray tracing; returns the hits.
 fn assert_packets_equal(
     t: &RayTracer<'_, Heightfield<'_, f32>>,
@@ -90,21 +118,21 @@ fn assert_packets_equal(
             }
         }
     }
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx512f") {
+    for (name, wide) in wide_variants() {
         for (i, (r, s)) in rays.iter().zip(&scalar).enumerate() {
-            // SAFETY: the CPU has AVX-512F.
-            let g = unsafe { t.trace_maxmip_wide_avx512(r, mip) }.unwrap();
+            let g = wide(t, r, mip).unwrap();
+            // Every form walks the same nodes and cells as the portable one.
+            assert_eq!(g, t.trace_maxmip_wide(r, mip).unwrap(), "{name}, ray {i}");
             assert_eq!(
                 g.hit,
                 s.hit,
-                "wide walk differs for ray {i} {r:?} ({:?})",
+                "{name} differs for ray {i} {r:?} ({:?})",
                 t.surface()
             );
             // Cells the ray only touches at a point are skipped (`ray/wide.rs`).
             assert!(
                 g.cells <= s.cells,
-                "ray {i}: {} > {} cells",
+                "{name}, ray {i}: {} > {} cells",
                 g.cells,
                 s.cells
             );
@@ -112,7 +140,7 @@ fn assert_packets_equal(
                 assert_eq!(
                     hit_bits(gh),
                     hit_bits(sh),
-                    "wide: hit bits differ for ray {i}"
+                    "{name}: hit bits differ for ray {i}"
                 );
             }
         }
@@ -326,10 +354,12 @@ fn packet_paths_reject_bad_buffers() {
             assert!(t5
                 .trace_maxmip_packet_avx512(&rays, &mip, &mut out)
                 .is_err());
-            // The sixteen-wide walk checks the pyramid's grid too (AVX-512F is enough).
-            assert!(t5.trace_maxmip_wide_avx512(&rays[0], &mip).is_err());
-            assert!(t.trace_maxmip_wide_avx512(&rays[0], &mip).is_ok());
         }
+    }
+    // The sixteen-wide walks check the pyramid's grid too.
+    for (name, wide) in wide_variants() {
+        assert!(wide(&t5, &rays[0], &mip).is_err(), "{name}");
+        assert!(wide(&t, &rays[0], &mip).is_ok(), "{name}");
     }
 }
 
@@ -340,8 +370,7 @@ fn packet_paths_reject_bad_buffers() {
 /// builds them.
 #[test]
 fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx512f") {
+    {
         let data: [u8; 40] = [
             4, 3, 255, 253, 0, 0, 0, 64, 0, 0, 0, 64, 3, 255, 253, 0, 0, 0, 64, 0, 0, 0, 64, 251,
             37, 4, 3, 255, 0, 0, 0, 64, 0, 5, 5, 255, 254, 67, 0, 155,
@@ -363,10 +392,16 @@ fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
         let t = RayTracer::new(&hf, Surface::Nearest);
         for r in &rays {
             let n = t.trace_maxmip(r, &mip).unwrap();
-            // SAFETY: the CPU has AVX-512F.
-            let g = unsafe { t.trace_maxmip_wide_avx512(r, &mip) }.unwrap();
-            assert_eq!(g.hit, n.hit, "{r:?}");
-            assert!(g.cells <= n.cells, "{r:?}: {} > {} cells", g.cells, n.cells);
+            for (name, wide) in wide_variants() {
+                let g = wide(&t, r, &mip).unwrap();
+                assert_eq!(g.hit, n.hit, "{name}: {r:?}");
+                assert!(
+                    g.cells <= n.cells,
+                    "{name}, {r:?}: {} > {} cells",
+                    g.cells,
+                    n.cells
+                );
+            }
         }
     }
 }

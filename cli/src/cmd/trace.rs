@@ -86,8 +86,9 @@ pub struct TraceArgs {
     #[arg(long)]
     no_packet: bool,
     /// Max-mip only, with --no-packet: trace ray by ray through sixteen-wide nodes (two
-    /// pyramid levels a step, sixteen children tested in AVX-512 lanes) instead of the
-    /// neighbour walk; the same hits. Needs a CPU with AVX-512F.
+    /// pyramid levels a step, sixteen children tested at once: in AVX-512 lanes where the CPU
+    /// has AVX-512F, else AVX2, else the build's baseline vector unit) instead of the
+    /// neighbour walk; the same hits.
     #[arg(long)]
     wide: bool,
     /// Benchmarking aid: after the image, time it again on this thread in chunks of K
@@ -163,13 +164,19 @@ fn has_avx512() -> bool {
     false
 }
 
-/// Whether this CPU runs the sixteen-wide walk (AVX-512F).
-fn has_avx512f() -> bool {
+/// The form of the sixteen-wide walk this CPU runs: `avx512` (AVX-512F), `avx2`, or
+/// `portable`.
+fn wide_kind() -> &'static str {
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx512f") {
-        return true;
+    {
+        if std::is_x86_feature_detected!("avx512f") {
+            return "avx512";
+        }
+        if std::is_x86_feature_detected!("avx2") {
+            return "avx2";
+        }
     }
-    false
+    "portable"
 }
 
 /// The packet variant this CPU runs: `avx512` where detected, else `portable` (ray by ray).
@@ -181,21 +188,24 @@ fn packet_kind() -> &'static str {
     }
 }
 
-/// One max-mip ray, through the sixteen-wide walk where `wide` (the caller checked AVX-512F)
-/// or the neighbour walk.
+/// One max-mip ray, through the sixteen-wide walk of form `wide` ([`wide_kind`]) or, for
+/// `None`, the neighbour walk.
 fn trace_one(
     tracer: &RayTracer<'_, Heightfield<'_, f32>>,
     ray: &Ray,
     mip: &MaxMip<'_>,
-    wide: bool,
+    wide: Option<&str>,
 ) -> Result<Trace, relief_core::Error> {
-    #[cfg(target_arch = "x86_64")]
-    if wide {
-        // SAFETY: `run` accepts --wide only where the CPU has AVX-512F.
-        return unsafe { tracer.trace_maxmip_wide_avx512(ray, mip) };
+    match wide {
+        None => tracer.trace_maxmip(ray, mip),
+        // SAFETY: `wide_kind` names `avx512` only where the CPU has AVX-512F.
+        #[cfg(target_arch = "x86_64")]
+        Some("avx512") => unsafe { tracer.trace_maxmip_wide_avx512(ray, mip) },
+        // SAFETY: `wide_kind` names `avx2` only where the CPU has AVX2.
+        #[cfg(target_arch = "x86_64")]
+        Some("avx2") => unsafe { tracer.trace_maxmip_wide_avx2(ray, mip) },
+        Some(_) => tracer.trace_maxmip_wide(ray, mip),
     }
-    let _ = wide;
-    tracer.trace_maxmip(ray, mip)
 }
 
 /// Max-mip packet tracing with the best variant for this CPU (same results for every variant).
@@ -245,9 +255,6 @@ pub fn run(a: &TraceArgs) -> CliResult {
             "--wide only applies to --method maxmip with --no-packet".into(),
         ));
     }
-    if a.wide && !has_avx512f() {
-        return Err(CliError("--wide needs a CPU with AVX-512F".into()));
-    }
     if a.threads == Some(0) {
         return Err(CliError("--threads must be at least 1".into()));
     }
@@ -279,6 +286,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
     }
 
     let mut depth = vec![f32::INFINITY; w as usize * h as usize];
+    let wide = a.wide.then(wide_kind);
     let packet = match (a.method, a.no_packet) {
         (Method::Maxmip, false) => packet_kind(),
         _ => "off",
@@ -332,7 +340,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
                     tracer.trace_run_dda(ray, acc).map_err(|e| e.to_string())?
                 }
                 (Accel::Mip(mip), _) => {
-                    trace_one(&tracer, ray, mip, a.wide).map_err(|e| e.to_string())?
+                    trace_one(&tracer, ray, mip, wide).map_err(|e| e.to_string())?
                 }
                 (Accel::None, Method::March) => {
                     let m = tracer.trace_march(ray, &opts).map_err(|e| e.to_string())?;
@@ -358,7 +366,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
             }
             (Accel::Mip(mip), _) => {
                 for (r, o) in rays.iter().zip(out.iter_mut()) {
-                    *o = trace_one(&tracer, r, mip, a.wide).map_err(|e| e.to_string())?;
+                    *o = trace_one(&tracer, r, mip, wide).map_err(|e| e.to_string())?;
                 }
                 Ok(())
             }
@@ -473,10 +481,10 @@ pub fn run(a: &TraceArgs) -> CliResult {
             "cells_visited": stats.cells,
             "steps": stats.steps,
             "packet": packet,
-            "walk": match (a.method, a.wide) {
-                (Method::Maxmip, true) => "wide-avx512",
-                (Method::Maxmip, false) => "neighbour",
-                _ => "none",
+            "walk": match (a.method, wide) {
+                (Method::Maxmip, Some(k)) => format!("wide-{k}"),
+                (Method::Maxmip, None) => "neighbour".into(),
+                _ => "none".into(),
             },
             "trace_ms_includes_ray_setup": !pre,
             "out": a.out.display().to_string(),

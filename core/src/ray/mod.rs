@@ -52,7 +52,6 @@ mod run;
 mod simd;
 #[cfg(test)]
 mod tests;
-#[cfg(target_arch = "x86_64")]
 mod wide;
 
 pub use dda::{CellDda, CellRun, GridLine, RunDda, RunIntercept, RunIntercepts};

@@ -7,30 +7,46 @@
 //! The pyramid ([`MaxMip`]) stores each level in 4 x 4 tiles, so the sixteen nodes two levels
 //! below node `(x, y)` of level `k` are tile `(x, y)` of level `k - 2`: one 64-byte line. Taken
 //! two levels at a time the pyramid is a 16-ary tree whose leaves are the cells. A node tests its
-//! sixteen children at once in two AVX-512 registers of `f64` lanes, with the operations of the
-//! neighbour walk's step (`mip_step` in `maxmip.rs`) in the same order: each child's slab
-//! parameters, its interval `[ta, tb]` clipped to the ray's, and its maximum against the ray's
-//! lowest point over that interval. So a child is entered when the neighbour walk would descend
-//! into it, and a cell is tested over the same interval, except for children the ray only
-//! touches at one point (`ta == tb`), which are not entered. The neighbour walk tests two kinds
-//! of those: the cell under a start that lies on a cell boundary (whose one-point test
-//! `start_hit` has already made before either walk begins) and a cell entered exactly at the
-//! ray's clipped end. So the cells tested are the same or fewer, and the hits are those of
-//! [`RayTracer::trace_maxmip`] (bit for bit on every ray of the tests and the `rays` fuzz
-//! target). The lanes hold the children in the order the ray crosses them
-//! (a ray's path through a 4 x 4 block is a monotone staircase, one child per anti-diagonal
-//! counted from the corner it enters by), so the next child is the lowest set bit of the
-//! node's mask; a node with children left waits on a stack of at most one node per level pair,
-//! and the first cell hit ends the ray.
+//! sixteen children at once, with the operations of the neighbour walk's step (`mip_step` in
+//! `maxmip.rs`) in the same order: each child's slab parameters, its interval `[ta, tb]` clipped
+//! to the ray's, and its maximum against the ray's lowest point over that interval. So a child
+//! is entered when the neighbour walk would descend into it, and a cell is tested over the same
+//! interval, except for children the ray only touches at one point (`ta == tb`), which are not
+//! entered. The neighbour walk tests two kinds of those: the cell under a start that lies on a
+//! cell boundary (whose one-point test `start_hit` has already made before either walk begins)
+//! and a cell entered exactly at the ray's clipped end. So the cells tested are the same or
+//! fewer, and the hits are those of [`RayTracer::trace_maxmip`] (bit for bit on every ray of
+//! the tests and the `rays` fuzz target). The walk takes a node's children in the order the ray
+//! crosses them (a ray's path through a 4 x 4 block is a monotone staircase, one child per
+//! anti-diagonal counted from the corner it enters by), so the next child is the lowest set bit
+//! of the node's mask in that order; a node with children left waits on a stack of at most one
+//! node per level pair, and the first cell hit ends the ray.
+//!
+//! Three forms of the node test share the walk ([`RayTracer::wide_loop`]), each giving the
+//! same traces:
+//! - the portable one here ([`RayTracer::trace_maxmip_wide`]), plain `f64` arithmetic in the
+//!   tile's own order (lane `row * 4 + column`): a child's x slab depends on its column only and
+//!   its y slab on its row only, so four of each are computed and combined sixteen times; the
+//!   mask goes into crossing order by a table;
+//! - AVX2 (`wide/avx2.rs`), the same in registers of four lanes, a row of the block per
+//!   register;
+//! - AVX-512 (`wide/avx512.rs`), two registers of eight lanes in crossing order.
+//!
+//! A cell's interval is computed again, in scalar, when it is tested. Measured on the bundled
+//! DEM (BENCHMARKS.md, "The sixteen-wide walk in AVX2"): AVX2 1.2-1.3x the neighbour walk ray
+//! by ray, the portable form 0.8-0.9x (the compiler does not vectorise it well).
 
 use super::cell::{CellHit, LocalRay};
-use super::maxmip::MaxMip;
+use super::maxmip::{max_f, min_f, MaxMip};
 use super::{Hit, Ray, RayTracer, Trace};
 use crate::{Error, Terrain};
-use bytemuck::cast;
-use core::arch::x86_64::*;
 
-/// The children's `(column, row)` in a 4 x 4 block, in lane order, for a ray whose x and y
+#[cfg(target_arch = "x86_64")]
+mod avx2;
+#[cfg(target_arch = "x86_64")]
+mod avx512;
+
+/// The children's `(column, row)` in a 4 x 4 block, in crossing order, for a ray whose x and y
 /// directions are negative (`fx`, `fy`) or not: by anti-diagonal from the corner the ray
 /// enters by, rows in order within one.
 const fn order(fx: bool, fy: bool) -> [[u32; 2]; 16] {
@@ -52,103 +68,111 @@ const fn order(fx: bool, fy: bool) -> [[u32; 2]; 16] {
     out
 }
 
-/// The lanes of one direction octant: [`order`], and the same as `f64` lane values (two
-/// halves) and as tile elements (`row * 4 + column`, for the permute of the maxima).
-struct Lanes {
-    xy: [[u32; 2]; 16],
-    cx: [[f64; 8]; 2],
-    cy: [[f64; 8]; 2],
-    perm: [i32; 16],
-}
-
-const fn lanes(fx: bool, fy: bool) -> Lanes {
-    let xy = order(fx, fy);
-    let mut l = Lanes {
-        xy,
-        cx: [[0.0; 8]; 2],
-        cy: [[0.0; 8]; 2],
-        perm: [0; 16],
-    };
-    let mut j = 0;
-    while j < 16 {
-        l.cx[j / 8][j % 8] = xy[j][0] as f64;
-        l.cy[j / 8][j % 8] = xy[j][1] as f64;
-        l.perm[j] = (xy[j][1] * 4 + xy[j][0]) as i32;
-        j += 1;
-    }
-    l
-}
-
-/// [`lanes`] for the four direction octants, indexed `fx | fy << 1`.
-static LANES: [Lanes; 4] = [
-    lanes(false, false),
-    lanes(true, false),
-    lanes(false, true),
-    lanes(true, true),
+/// [`order`] for the four direction octants, indexed `fx | fy << 1`.
+const ORDER: [[[u32; 2]; 16]; 4] = [
+    order(false, false),
+    order(true, false),
+    order(false, true),
+    order(true, true),
 ];
 
-/// Per-ray constants of one horizontal axis.
+/// The portable node's mask (bit `row * 4 + column`) put into crossing order (bit `n` for
+/// the `n`-th child of [`order`]), a byte of the tile mask at a time: `[half][byte]`.
+const fn crossing(fx: bool, fy: bool) -> [[u16; 256]; 2] {
+    let ord = order(fx, fy);
+    let mut lane = [0u32; 16];
+    let mut n = 0;
+    while n < 16 {
+        lane[(ord[n][1] * 4 + ord[n][0]) as usize] = n as u32;
+        n += 1;
+    }
+    let mut out = [[0u16; 256]; 2];
+    let mut h = 0;
+    while h < 2 {
+        let mut v = 0;
+        while v < 256 {
+            let mut b = 0;
+            while b < 8 {
+                if v >> b & 1 != 0 {
+                    out[h][v] |= 1 << lane[h * 8 + b];
+                }
+                b += 1;
+            }
+            v += 1;
+        }
+        h += 1;
+    }
+    out
+}
+
+/// [`crossing`] for the four direction octants, indexed as [`ORDER`] (4 KiB).
+static CROSSING: [[[u16; 256]; 2]; 4] = [
+    crossing(false, false),
+    crossing(true, false),
+    crossing(false, true),
+    crossing(true, true),
+];
+
+/// Per-ray constants of one horizontal axis (portable node).
 struct Axis {
-    /// The children's positions along the axis (in nodes of their level) in lane order, two
-    /// halves.
-    c: [__m512d; 2],
-    /// Origin and inverse direction component.
-    o: __m512d,
-    inv: __m512d,
-    /// Cells along the axis.
-    n: __m512d,
-    /// Direction component positive (all lanes alike), or zero.
-    pos: __mmask8,
+    /// Origin, inverse direction component, cells along the axis.
+    o: f64,
+    inv: f64,
+    n: f64,
+    /// Direction component positive, or zero.
+    pos: bool,
     zero: bool,
 }
 
 impl Axis {
-    /// For the children in half `h` of a block starting at `base` with nodes of size `s`:
-    /// the lanes whose node lies inside the grid and, when the ray does not move along this
-    /// axis, holds it (the node the neighbour walk's `floor` picks, the last one for `o == n`),
-    /// and the slab parameters (`slab_signed` of `maxmip.rs`; `-inf, inf` for a zero
-    /// component).
-    #[target_feature(enable = "avx512f")]
-    #[inline]
-    fn span(&self, h: usize, base: __m512d, s: __m512d) -> (__mmask8, __m512d, __m512d) {
-        let lo = _mm512_add_pd(base, _mm512_mul_pd(self.c[h & 1], s));
-        let hi = _mm512_min_pd(_mm512_add_pd(lo, s), self.n);
-        // The tile's padding past the grid is never read as a node.
-        let live = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(lo, self.n);
-        if self.zero {
-            let o = self.o;
-            let inside = _mm512_cmp_pd_mask::<_CMP_LT_OQ>(o, _mm512_add_pd(lo, s))
-                | (_mm512_cmp_pd_mask::<_CMP_GE_OQ>(o, self.n)
-                    & _mm512_cmp_pd_mask::<_CMP_GE_OQ>(hi, self.n));
-            let on = _mm512_cmp_pd_mask::<_CMP_LE_OQ>(lo, o) & inside;
-            return (
-                live & on,
-                _mm512_set1_pd(f64::NEG_INFINITY),
-                _mm512_set1_pd(f64::INFINITY),
-            );
+    fn new(o: f64, d: f64, inv: f64, n: u32) -> Axis {
+        Axis {
+            o,
+            inv,
+            n: f64::from(n),
+            pos: d > 0.0,
+            zero: d == 0.0,
         }
-        let a = _mm512_mul_pd(_mm512_sub_pd(lo, self.o), self.inv);
-        let b = _mm512_mul_pd(_mm512_sub_pd(hi, self.o), self.inv);
-        (
-            live,
-            _mm512_mask_blend_pd(self.pos, b, a),
-            _mm512_mask_blend_pd(self.pos, a, b),
-        )
+    }
+
+    /// For the child at position `c` (in nodes of its level) of a block starting at `base`
+    /// with nodes of size `s`: whether its node lies inside the grid and, when the ray does not
+    /// move along this axis, holds it (the node the neighbour walk's `floor` picks, the last
+    /// one for `o == n`), and its slab parameters (`slab_signed` of `maxmip.rs`; `-inf, inf`
+    /// for a zero component). The same operations as the AVX-512 node's `Axis::span`, written
+    /// without branches so that sixteen lanes of it vectorise.
+    #[inline(always)]
+    fn span(&self, c: f64, base: f64, s: f64) -> (bool, f64, f64) {
+        let lo = base + c * s;
+        let hi = min_f(lo + s, self.n);
+        // The tile's padding past the grid is never read as a node.
+        let live = lo < self.n;
+        let o = self.o;
+        let inside = (o < lo + s) | ((o >= self.n) & (hi >= self.n));
+        let on = (lo <= o) & inside;
+        let a = (lo - o) * self.inv;
+        let b = (hi - o) * self.inv;
+        let (en, ex) = if self.pos { (a, b) } else { (b, a) };
+        if self.zero {
+            (live & on, f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            (live, en, ex)
+        }
     }
 }
 
-/// Per-ray constants of the walk.
+/// Per-ray constants of the portable node.
 struct Consts {
     x: Axis,
     y: Axis,
-    /// Lane `j` reads element `row * 4 + column` of the tile.
-    perm: __m512i,
-    oz: __m512d,
-    dz: __m512d,
+    oz: f64,
+    dz: f64,
     /// The ray descends (`dz < 0`).
     down: bool,
-    t0: __m512d,
-    t1: __m512d,
+    t0: f64,
+    t1: f64,
+    /// [`CROSSING`] of the ray's octant.
+    cross: &'static [[u16; 256]; 2],
 }
 
 /// A node: the level of its children, its index on its own level, and the children left.
@@ -162,20 +186,14 @@ struct Node {
 
 impl<T: Terrain> RayTracer<'_, T> {
     /// [`RayTracer::trace_maxmip`] through sixteen-wide nodes, the sixteen children of a node
-    /// tested in AVX-512 lanes (x86-64 only; see `ray/wide.rs`): the same hits, the same cells
-    /// tested or fewer (cells the ray only touches at a point are skipped), in fewer and wider
-    /// steps. [`Trace::steps`] counts the nodes whose children
-    /// were tested. Safe to call only where the CPU has AVX-512F (check with
-    /// `is_x86_feature_detected!` on the std side). [`Error::LengthMismatch`] if `mip` belongs
-    /// to another grid size.
-    ///
-    /// # Safety
-    ///
-    /// The CPU must support AVX-512F (a `#[target_feature]` function: calling it elsewhere is
-    /// undefined behaviour). The function itself uses no `unsafe`.
+    /// tested at once (see `ray/wide.rs`): the same hits, the same cells tested or fewer (cells
+    /// the ray only touches at a point are skipped), in fewer and wider steps.
+    /// [`Trace::steps`] counts the nodes whose children were tested. This is the portable
+    /// form, built for the target's baseline vector unit; on x86-64, `trace_maxmip_wide_avx2`
+    /// and `trace_maxmip_wide_avx512` give the same traces where the CPU has those features.
+    /// [`Error::LengthMismatch`] if `mip` belongs to another grid size.
     ///
     /// ```
-    /// # #[cfg(target_arch = "x86_64")] {
     /// use relief_core::ray::{MaxMip, Ray, RayTracer};
     /// use relief_core::{Heightfield, Surface};
     /// use glam::Vec3;
@@ -185,60 +203,81 @@ impl<T: Terrain> RayTracer<'_, T> {
     /// let mip = MaxMip::build(&hf, &mut buf).unwrap();
     /// let t = RayTracer::new(&hf, Surface::Triangles);
     /// let ray = Ray::new(Vec3::new(-3.0, 2.5, 14.0), Vec3::new(1.0, 0.7, -0.2)).unwrap();
-    /// if std::is_x86_feature_detected!("avx512f") {
-    ///     // SAFETY: the CPU has AVX-512F.
-    ///     let wide = unsafe { t.trace_maxmip_wide_avx512(&ray, &mip) }.unwrap();
-    ///     let neighbour = t.trace_maxmip(&ray, &mip).unwrap();
-    ///     assert_eq!(wide.hit, neighbour.hit);
-    ///     assert!(wide.cells <= neighbour.cells && wide.steps < neighbour.steps);
-    /// }
-    /// # }
+    /// let wide = t.trace_maxmip_wide(&ray, &mip).unwrap();
+    /// let neighbour = t.trace_maxmip(&ray, &mip).unwrap();
+    /// assert_eq!(wide.hit, neighbour.hit);
+    /// assert!(wide.cells <= neighbour.cells && wide.steps < neighbour.steps);
     /// ```
-    // Not under `cfg(doctest)`, as `trace_maxmip_packet_avx512` (rust-lang/rust#49864).
-    #[cfg_attr(not(doctest), target_feature(enable = "avx512f"))]
-    pub fn trace_maxmip_wide_avx512(&self, ray: &Ray, mip: &MaxMip<'_>) -> Result<Trace, Error> {
+    pub fn trace_maxmip_wide(&self, ray: &Ray, mip: &MaxMip<'_>) -> Result<Trace, Error> {
         self.check_mip(mip)?;
         let mut out = Trace::default();
-        self.wide_walk(ray, mip, &mut out);
+        self.wide_portable(ray, mip, &mut out);
         Ok(out)
     }
 
-    #[target_feature(enable = "avx512f")]
-    fn wide_walk(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) {
+    /// The walk with the portable node.
+    fn wide_portable(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) {
+        let Some((lr, root, oct)) = self.wide_start(ray, mip, out) else {
+            return;
+        };
+        let c = Consts {
+            x: Axis::new(lr.o.x, lr.d.x, lr.inv[0], mip.nx),
+            y: Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny),
+            oz: lr.o.z,
+            dz: lr.d.z,
+            down: lr.d.z < 0.0,
+            t0: lr.t0,
+            t1: lr.t1,
+            cross: &CROSSING[oct & 3],
+        };
+        self.wide_loop(ray, mip, out, &lr, (root, oct), |child, ix, iy| {
+            wide_node(mip, &c, child, ix, iy)
+        });
+    }
+
+    /// The start of every form of the walk: the clipped ray, the root level (the top node,
+    /// or one past it when the top level is odd: its children, the tile of the level below
+    /// the top, hold at most 2 x 2 nodes) and the ray's octant (`fx | fy << 1`); `None` when
+    /// the ray is done (a miss, a hit at its start, or a single-cell grid, walked by the
+    /// neighbour walk).
+    #[inline(always)]
+    fn wide_start(
+        &self,
+        ray: &Ray,
+        mip: &MaxMip<'_>,
+        out: &mut Trace,
+    ) -> Option<(LocalRay, u32, usize)> {
         let top = mip.levels - 1;
-        // The root: the top node, or one past it when the top level is odd (its children,
-        // the tile of the level below the top, hold at most 2 x 2 nodes).
         let root = top + (top & 1);
         if root < 2 {
             // A single cell: no node to take.
             self.mip_walk(ray, mip, out);
-            return;
+            return None;
         }
-        let Some(lr) = self.mip_clip(ray, out) else {
-            return;
-        };
+        let lr = self.mip_clip(ray, out)?;
         let oct = usize::from(lr.d.x < 0.0) | usize::from(lr.d.y < 0.0) << 1;
-        let ln = &LANES[oct & 3];
-        let ord = &ln.xy;
-        let axis = |c: &[[f64; 8]; 2], o: f64, d: f64, inv: f64, n: u32| Axis {
-            c: [cast(c[0]), cast(c[1])],
-            o: _mm512_set1_pd(o),
-            inv: _mm512_set1_pd(inv),
-            n: _mm512_set1_pd(n as f64),
-            pos: if d > 0.0 { 0xff } else { 0 },
-            zero: d == 0.0,
-        };
-        let c = Consts {
-            x: axis(&ln.cx, lr.o.x, lr.d.x, lr.inv[0], mip.nx),
-            y: axis(&ln.cy, lr.o.y, lr.d.y, lr.inv[1], mip.ny),
-            perm: cast(ln.perm),
-            oz: _mm512_set1_pd(lr.o.z),
-            dz: _mm512_set1_pd(lr.d.z),
-            down: lr.d.z < 0.0,
-            t0: _mm512_set1_pd(lr.t0),
-            t1: _mm512_set1_pd(lr.t1),
-        };
-        let (mask, mut ta, mut tb) = self.wide_node(mip, &c, root - 2, 0, 0);
+        Some((lr, root, oct))
+    }
+
+    /// The walk from the root: `node(child, ix, iy)` tests the sixteen children (on level
+    /// `child`) of node `(ix, iy)` two levels up and gives the mask of those to enter, in
+    /// crossing order. A cell's interval is computed again when it is tested, with the scalar
+    /// form of the node's operations ([`Axis::span`]), rather than kept from its node's test
+    /// for every lane (the same values).
+    #[inline(always)]
+    fn wide_loop(
+        &self,
+        ray: &Ray,
+        mip: &MaxMip<'_>,
+        out: &mut Trace,
+        lr: &LocalRay,
+        (root, oct): (u32, usize),
+        mut node: impl FnMut(u32, u32, u32) -> u32,
+    ) {
+        let ord = &ORDER[oct & 3];
+        let x = Axis::new(lr.o.x, lr.d.x, lr.inv[0], mip.nx);
+        let y = Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny);
+        let mask = node(root - 2, 0, 0);
         let mut cur = Node {
             child: root - 2,
             ix: 0,
@@ -271,14 +310,19 @@ impl<T: Terrain> RayTracer<'_, T> {
             let (gx, gy) = (4 * cur.ix + kx, 4 * cur.iy + ky);
             if cur.child == 0 {
                 out.cells += 1;
-                let (tas, tbs): ([f64; 8], [f64; 8]) = (cast(ta[j >> 3]), cast(tb[j >> 3]));
-                if let Some(h) = self.wide_cell(&lr, gx, gy, tas[j & 7], tbs[j & 7]) {
+                // Cell `(gx, gy)`: child 0 of a block at `(gx, gy)` with nodes of size 1,
+                // the operations and values of its lane in the node's test.
+                let (_, ax, ex) = x.span(0.0, f64::from(gx), 1.0);
+                let (_, ay, ey) = y.span(0.0, f64::from(gy), 1.0);
+                let ta = max_f(max_f(lr.t0, ax), ay);
+                let tb = min_f(min_f(lr.t1, ex), ey);
+                if let Some(h) = self.wide_cell(lr, gx, gy, ta, tb) {
                     out.hit = Some(self.wide_hit(ray, gx, gy, h));
                     break;
                 }
                 continue;
             }
-            let (mask, nta, ntb) = self.wide_node(mip, &c, cur.child - 2, gx, gy);
+            let mask = node(cur.child - 2, gx, gy);
             nodes += 1;
             if mask != 0 {
                 if cur.mask != 0 {
@@ -293,69 +337,9 @@ impl<T: Terrain> RayTracer<'_, T> {
                     iy: gy,
                     mask,
                 };
-                (ta, tb) = (nta, ntb);
             }
         }
         out.steps = u32::try_from(nodes).unwrap_or(u32::MAX);
-    }
-
-    /// The sixteen children (on level `child`) of node `(ix, iy)` two levels up: the mask of
-    /// those the ray crosses and the neighbour walk would enter (lane order), and their
-    /// intervals.
-    #[target_feature(enable = "avx512f")]
-    #[inline]
-    fn wide_node(
-        &self,
-        mip: &MaxMip<'_>,
-        c: &Consts,
-        child: u32,
-        ix: u32,
-        iy: u32,
-    ) -> (u32, [__m512d; 2], [__m512d; 2]) {
-        let l = mip.level(child);
-        // Node sizes and block corners are integers below 2^53: exact in `f64`, as the
-        // neighbour walk's `ix * s` converted.
-        let s = (1u64 << (child & 63)) as f64;
-        let sv = _mm512_set1_pd(s);
-        let (bx, by) = (
-            _mm512_set1_pd(((4 * ix as u64) << (child & 63)) as f64),
-            _mm512_set1_pd(((4 * iy as u64) << (child & 63)) as f64),
-        );
-        let idx = l.off + (((iy as usize) * l.tx as usize + ix as usize) << 4);
-        let mut tile = [f32::NEG_INFINITY; 16];
-        if let Some(src) = mip.data.get(idx..idx + 16) {
-            tile.copy_from_slice(src);
-        }
-        let m = _mm512_permutexvar_ps(c.perm, cast(tile));
-        let mx: [__m512d; 2] = [
-            _mm512_cvtps_pd(_mm512_castps512_ps256(m)),
-            _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(
-                _mm512_castps_pd(m),
-            ))),
-        ];
-        let mut mask = 0u32;
-        let mut ta = [_mm512_setzero_pd(); 2];
-        let mut tb = [_mm512_setzero_pd(); 2];
-        for h in 0..2 {
-            let (live_x, ax, ex) = c.x.span(h, bx, sv);
-            let (live_y, ay, ey) = c.y.span(h, by, sv);
-            let live = live_x & live_y;
-            let a = _mm512_max_pd(_mm512_max_pd(c.t0, ax), ay);
-            let b = _mm512_min_pd(_mm512_min_pd(c.t1, ex), ey);
-            // The ray's lowest point over the interval: `min(z(a), z(b))` of the neighbour
-            // walk, which is `z(b)` for a descending ray and `z(a)` otherwise (rounding is
-            // monotone, so the same value).
-            let zmin = _mm512_add_pd(c.oz, _mm512_mul_pd(if c.down { b } else { a }, c.dz));
-            let enter = live
-                // `<`: a child the ray only touches (an exact corner crossing, a start or
-                // end on its boundary) is not entered; see the function's documentation.
-                & _mm512_cmp_pd_mask::<_CMP_LT_OQ>(a, b)
-                & _mm512_cmp_pd_mask::<_CMP_LE_OQ>(zmin, mx[h]);
-            mask |= u32::from(enter) << (8 * h);
-            ta[h] = a;
-            tb[h] = b;
-        }
-        (mask, ta, tb)
     }
 
     /// The exact test of cell `(cx, cy)` over `[ta, tb]`, out of line: the surfaces' tests may
@@ -372,4 +356,52 @@ impl<T: Terrain> RayTracer<'_, T> {
     fn wide_hit(&self, ray: &Ray, cx: u32, cy: u32, h: CellHit) -> Hit {
         self.make_hit(ray, cx, cy, h)
     }
+}
+
+/// The portable node test: the sixteen children (on level `child`) of node `(ix, iy)` two
+/// levels up, in tile order; the mask of those the ray crosses and the neighbour walk would
+/// enter, in crossing order.
+#[inline(always)]
+fn wide_node(mip: &MaxMip<'_>, c: &Consts, child: u32, ix: u32, iy: u32) -> u32 {
+    let l = mip.level(child);
+    // Node sizes and block corners are integers below 2^53: exact in `f64`, as the neighbour
+    // walk's `ix * s` converted.
+    let s = (1u64 << (child & 63)) as f64;
+    let bx = ((4 * ix as u64) << (child & 63)) as f64;
+    let by = ((4 * iy as u64) << (child & 63)) as f64;
+    let idx = l.off + (((iy as usize) * l.tx as usize + ix as usize) << 4);
+    let mut tile = [f32::NEG_INFINITY; 16];
+    if let Some(src) = mip.data.get(idx..idx + 16) {
+        tile.copy_from_slice(src);
+    }
+    // A child's x slab depends on its column only and its y slab on its row only: four of
+    // each, the same values the sixteen lanes would compute one by one.
+    let (mut lx, mut ax, mut ex) = ([false; 4], [0.0; 4], [0.0; 4]);
+    let (mut ly, mut ay, mut ey) = ([false; 4], [0.0; 4], [0.0; 4]);
+    for (k, d) in [0.0, 1.0, 2.0, 3.0].into_iter().enumerate() {
+        let (l, a, e) = c.x.span(d, bx, s);
+        // The ray's own interval first, as `max_f(max_f(t0, ax), ay)` in the neighbour walk.
+        (lx[k], ax[k], ex[k]) = (l, max_f(c.t0, a), min_f(c.t1, e));
+        (ly[k], ay[k], ey[k]) = c.y.span(d, by, s);
+    }
+    let mut m = 0u32;
+    for (r, mr) in tile.chunks_exact(4).enumerate() {
+        let (lyr, ayr, eyr) = (ly[r & 3], ay[r & 3], ey[r & 3]);
+        for (k, (&mk, ((&lxk, &axk), &exk))) in
+            mr.iter().zip(lx.iter().zip(&ax).zip(&ex)).enumerate()
+        {
+            let a = max_f(axk, ayr);
+            let b = min_f(exk, eyr);
+            // The ray's lowest point over the interval: `min(z(a), z(b))` of the neighbour
+            // walk, which is `z(b)` for a descending ray and `z(a)` otherwise (rounding is
+            // monotone, so the same value).
+            let zmin = c.oz + (if c.down { b } else { a }) * c.dz;
+            // `<`: a child the ray only touches (an exact corner crossing, a start or end on
+            // its boundary) is not entered; see the module's documentation.
+            let e = lxk & lyr & (a < b) & (zmin <= f64::from(mk));
+            m |= u32::from(e) << (4 * r + k);
+        }
+    }
+    let cross = c.cross[0][(m & 0xff) as usize] | c.cross[1][(m >> 8 & 0xff) as usize];
+    u32::from(cross)
 }

@@ -1,0 +1,208 @@
+//! The sixteen-wide walk's node test in AVX2 (see `ray/wide.rs`): a child's x slab depends on
+//! its column only and its y slab on its row only, so the four columns' slabs take one
+//! register of four `f64` lanes, the four rows' another, and each row of the block is then one
+//! register (lane `k` is column `k`), the tile's own order; the mask goes into crossing order
+//! by the portable node's table. The operations are those of the portable node (and of the
+//! neighbour walk's step) in the same order, so the traces are the same.
+
+use super::CROSSING;
+use crate::ray::maxmip::MaxMip;
+use crate::ray::{Ray, RayTracer, Trace};
+use crate::{Error, Terrain};
+use bytemuck::cast;
+use core::arch::x86_64::*;
+
+/// Per-ray constants of one horizontal axis.
+struct Axis {
+    /// Origin, inverse direction component, cells along the axis.
+    o: __m256d,
+    inv: __m256d,
+    n: __m256d,
+    /// Direction component positive, or zero.
+    pos: bool,
+    zero: bool,
+}
+
+impl Axis {
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn new(o: f64, d: f64, inv: f64, n: u32) -> Axis {
+        Axis {
+            o: _mm256_set1_pd(o),
+            inv: _mm256_set1_pd(inv),
+            n: _mm256_set1_pd(f64::from(n)),
+            pos: d > 0.0,
+            zero: d == 0.0,
+        }
+    }
+
+    /// The portable `Axis::span` for the four children at positions `0, 1, 2, 3` (lanes) of a
+    /// block starting at `base` with nodes of size `s`: lanes whose node lies inside the grid
+    /// (and holds the ray, for a zero component), and the slab parameters.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn span(&self, base: __m256d, s: __m256d) -> (__m256d, __m256d, __m256d) {
+        let lo = _mm256_add_pd(base, _mm256_mul_pd(_mm256_set_pd(3.0, 2.0, 1.0, 0.0), s));
+        let hi = _mm256_min_pd(_mm256_add_pd(lo, s), self.n);
+        // The tile's padding past the grid is never read as a node.
+        let live = _mm256_cmp_pd::<_CMP_LT_OQ>(lo, self.n);
+        if self.zero {
+            let o = self.o;
+            let inside = _mm256_or_pd(
+                _mm256_cmp_pd::<_CMP_LT_OQ>(o, _mm256_add_pd(lo, s)),
+                _mm256_and_pd(
+                    _mm256_cmp_pd::<_CMP_GE_OQ>(o, self.n),
+                    _mm256_cmp_pd::<_CMP_GE_OQ>(hi, self.n),
+                ),
+            );
+            let on = _mm256_and_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(lo, o), inside);
+            return (
+                _mm256_and_pd(live, on),
+                _mm256_set1_pd(f64::NEG_INFINITY),
+                _mm256_set1_pd(f64::INFINITY),
+            );
+        }
+        let a = _mm256_mul_pd(_mm256_sub_pd(lo, self.o), self.inv);
+        let b = _mm256_mul_pd(_mm256_sub_pd(hi, self.o), self.inv);
+        if self.pos {
+            (live, a, b)
+        } else {
+            (live, b, a)
+        }
+    }
+}
+
+/// Per-ray constants of the walk.
+struct Consts {
+    x: Axis,
+    y: Axis,
+    oz: __m256d,
+    dz: __m256d,
+    /// The ray descends (`dz < 0`).
+    down: bool,
+    t0: __m256d,
+    t1: __m256d,
+    /// [`CROSSING`] of the ray's octant.
+    cross: &'static [[u16; 256]; 2],
+}
+
+impl<T: Terrain> RayTracer<'_, T> {
+    /// [`RayTracer::trace_maxmip_wide`] with its node test in AVX2 registers (x86-64 only):
+    /// the same traces. Safe to call only where the CPU has AVX2 (check with
+    /// `is_x86_feature_detected!` on the std side).
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX2 (a `#[target_feature]` function: calling it elsewhere is
+    /// undefined behaviour). The function itself uses no `unsafe`.
+    ///
+    /// ```
+    /// # #[cfg(target_arch = "x86_64")] {
+    /// use relief_core::ray::{MaxMip, Ray, RayTracer};
+    /// use relief_core::{Heightfield, Surface};
+    /// use glam::Vec3;
+    /// let s: Vec<f32> = (0..81 * 81).map(|i| ((i * 37) % 11) as f32).collect();
+    /// let hf = Heightfield::new(&s, 81, 81).unwrap();
+    /// let mut buf = vec![0.0; MaxMip::len(81, 81).unwrap()];
+    /// let mip = MaxMip::build(&hf, &mut buf).unwrap();
+    /// let t = RayTracer::new(&hf, Surface::Triangles);
+    /// let ray = Ray::new(Vec3::new(-3.0, 2.5, 14.0), Vec3::new(1.0, 0.7, -0.2)).unwrap();
+    /// if std::is_x86_feature_detected!("avx2") {
+    ///     // SAFETY: the CPU has AVX2.
+    ///     let wide = unsafe { t.trace_maxmip_wide_avx2(&ray, &mip) }.unwrap();
+    ///     assert_eq!(wide, t.trace_maxmip_wide(&ray, &mip).unwrap());
+    /// }
+    /// # }
+    /// ```
+    // Not under `cfg(doctest)`, as `trace_maxmip_packet_avx512` (rust-lang/rust#49864).
+    #[cfg_attr(not(doctest), target_feature(enable = "avx2"))]
+    pub fn trace_maxmip_wide_avx2(&self, ray: &Ray, mip: &MaxMip<'_>) -> Result<Trace, Error> {
+        self.check_mip(mip)?;
+        let mut out = Trace::default();
+        let Some((lr, root, oct)) = self.wide_start(ray, mip, &mut out) else {
+            return Ok(out);
+        };
+        let c = Consts {
+            x: Axis::new(lr.o.x, lr.d.x, lr.inv[0], mip.nx),
+            y: Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny),
+            oz: _mm256_set1_pd(lr.o.z),
+            dz: _mm256_set1_pd(lr.d.z),
+            down: lr.d.z < 0.0,
+            t0: _mm256_set1_pd(lr.t0),
+            t1: _mm256_set1_pd(lr.t1),
+            cross: &CROSSING[oct & 3],
+        };
+        self.wide_loop(ray, mip, &mut out, &lr, (root, oct), |child, ix, iy| {
+            node(mip, &c, child, ix, iy)
+        });
+        Ok(out)
+    }
+}
+
+/// The sixteen children (on level `child`) of node `(ix, iy)` two levels up: the mask of those
+/// the ray crosses and the neighbour walk would enter (crossing order).
+#[target_feature(enable = "avx2")]
+#[inline]
+fn node(mip: &MaxMip<'_>, c: &Consts, child: u32, ix: u32, iy: u32) -> u32 {
+    let l = mip.level(child);
+    // Node sizes and block corners are integers below 2^53: exact in `f64`, as the neighbour
+    // walk's `ix * s` converted.
+    let s = _mm256_set1_pd((1u64 << (child & 63)) as f64);
+    let bx = _mm256_set1_pd(((4 * ix as u64) << (child & 63)) as f64);
+    let by = _mm256_set1_pd(((4 * iy as u64) << (child & 63)) as f64);
+    let idx = l.off + (((iy as usize) * l.tx as usize + ix as usize) << 4);
+    let mut tile = [f32::NEG_INFINITY; 16];
+    if let Some(src) = mip.data.get(idx..idx + 16) {
+        tile.copy_from_slice(src);
+    }
+    let rows: [__m128; 4] = cast(tile);
+    let (lx, ax, ex) = c.x.span(bx, s);
+    // The ray's own interval first, as `max_f(max_f(t0, ax), ay)` in the neighbour walk.
+    let (ax, ex) = (_mm256_max_pd(c.t0, ax), _mm256_min_pd(c.t1, ex));
+    let (ly, ay, ey) = c.y.span(by, s);
+    let row = |r: usize, ly_r: __m256d, ay_r: __m256d, ey_r: __m256d| {
+        let a = _mm256_max_pd(ax, ay_r);
+        let b = _mm256_min_pd(ex, ey_r);
+        // The ray's lowest point over the interval: `min(z(a), z(b))` of the neighbour walk,
+        // `z(b)` for a descending ray and `z(a)` otherwise.
+        let zmin = _mm256_add_pd(c.oz, _mm256_mul_pd(if c.down { b } else { a }, c.dz));
+        let m = _mm256_cvtps_pd(rows[r & 3]);
+        // `<`: a child the ray only touches is not entered (see `ray/wide.rs`).
+        let e = _mm256_and_pd(
+            _mm256_and_pd(lx, ly_r),
+            _mm256_and_pd(
+                _mm256_cmp_pd::<_CMP_LT_OQ>(a, b),
+                _mm256_cmp_pd::<_CMP_LE_OQ>(zmin, m),
+            ),
+        );
+        (_mm256_movemask_pd(e) as u32) << (4 * r)
+    };
+    // Row `r`'s y values in every lane.
+    let m0 = row(
+        0,
+        _mm256_permute4x64_pd::<0x00>(ly),
+        _mm256_permute4x64_pd::<0x00>(ay),
+        _mm256_permute4x64_pd::<0x00>(ey),
+    );
+    let m1 = row(
+        1,
+        _mm256_permute4x64_pd::<0x55>(ly),
+        _mm256_permute4x64_pd::<0x55>(ay),
+        _mm256_permute4x64_pd::<0x55>(ey),
+    );
+    let m2 = row(
+        2,
+        _mm256_permute4x64_pd::<0xaa>(ly),
+        _mm256_permute4x64_pd::<0xaa>(ay),
+        _mm256_permute4x64_pd::<0xaa>(ey),
+    );
+    let m3 = row(
+        3,
+        _mm256_permute4x64_pd::<0xff>(ly),
+        _mm256_permute4x64_pd::<0xff>(ay),
+        _mm256_permute4x64_pd::<0xff>(ey),
+    );
+    let m = m0 | m1 | m2 | m3;
+    let cross = c.cross[0][(m & 0xff) as usize] | c.cross[1][(m >> 8 & 0xff) as usize];
+    u32::from(cross)
+}
