@@ -4,7 +4,7 @@ triangulation of CONVENTIONS.md (cell (x, y) split along (x, y)-(x+1, y+1)).
 usage: embree_trace.py RELIEF_BIN RAW.f32 W H DX DY VIEW WxH METHOD ROUNDS
 
 METHOD is a `relief trace --method` name, or `maxmip-scalar` for max-mip ray by ray
-(`--method maxmip --no-packet`; plain `maxmip` uses the AVX-512 packet path where the CPU has it),
+(`--method maxmip --no-packet`; plain `maxmip` takes the default path for the CPU: AVX-512 packets, else the AVX2 sixteen-wide walk),
 or `maxmip-wide` for max-mip ray by ray through sixteen-wide nodes (`--no-packet --wide`: AVX-512F, else AVX2, else portable lanes).
 
 RAW.f32 holds the heights in world units (make it with dem_to_raw.py; for the bundled Puget
@@ -180,6 +180,7 @@ def main():
                 "rays": int(len(dirs)),
                 "method": label,
                 "packet": packet,
+                "walk": rj.get("walk", ""),
                 "relief_hits": int(np.isfinite(tr).sum()),
                 "embree_hits": int(np.isfinite(te).sum()),
                 "agree_fraction": float(agree.mean()),

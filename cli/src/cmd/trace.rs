@@ -80,9 +80,9 @@ pub struct TraceArgs {
     /// looking straight down to --samples for horizontal rays: lerp(MIN, N, 1 - |dir.z|).
     #[arg(long, value_name = "MIN")]
     view_dependent_samples: Option<u32>,
-    /// Max-mip only: trace ray by ray instead of with the AVX-512 packet path (8 rays per
-    /// register) that is used where the CPU has AVX-512F and DQ (same results; for speed
-    /// comparisons).
+    /// Max-mip only: trace ray by ray with the neighbour walk instead of the default path for
+    /// this CPU: AVX-512 packets (8 rays per register) where it has AVX-512F and DQ, else the
+    /// sixteen-wide walk in AVX2 where it has AVX2 (same results; for speed comparisons).
     #[arg(long)]
     no_packet: bool,
     /// Max-mip only, with --no-packet: trace ray by ray through sixteen-wide nodes (two
@@ -179,12 +179,17 @@ fn wide_kind() -> &'static str {
     "portable"
 }
 
-/// The packet variant this CPU runs: `avx512` where detected, else `portable` (ray by ray).
-fn packet_kind() -> &'static str {
+/// The max-mip path taken without --no-packet, as `(packet, wide)` ([`wide_kind`]): AVX-512
+/// packets where the CPU has AVX-512F and DQ; else the sixteen-wide walk in AVX2, ray by ray,
+/// where it has AVX2 (1.2-1.3x the neighbour walk there, BENCHMARKS.md "The sixteen-wide walk
+/// in AVX2"); else the portable packets (the neighbour walk, ray by ray).
+fn default_mip_path() -> (&'static str, Option<&'static str>) {
     if has_avx512() {
-        "avx512"
+        ("avx512", None)
+    } else if wide_kind() == "avx2" {
+        ("off", Some("avx2"))
     } else {
-        "portable"
+        ("portable", None)
     }
 }
 
@@ -286,10 +291,10 @@ pub fn run(a: &TraceArgs) -> CliResult {
     }
 
     let mut depth = vec![f32::INFINITY; w as usize * h as usize];
-    let wide = a.wide.then(wide_kind);
-    let packet = match (a.method, a.no_packet) {
-        (Method::Maxmip, false) => packet_kind(),
-        _ => "off",
+    let (packet, wide) = match (a.method, a.no_packet) {
+        (Method::Maxmip, false) => default_mip_path(),
+        (Method::Maxmip, true) => ("off", a.wide.then(wide_kind)),
+        _ => ("off", None),
     };
     // Camera rays, made before the clock starts so that `trace_ms` counts tracing only (as the
     // Embree comparison, which times `scene.run` on rays it already has); for images over
