@@ -164,51 +164,72 @@ fn has_avx512() -> bool {
     false
 }
 
-/// The form of the sixteen-wide walk this CPU runs: `avx512` (AVX-512F), `avx2`, or
-/// `portable`.
-fn wide_kind() -> &'static str {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::is_x86_feature_detected!("avx512f") {
-            return "avx512";
-        }
-        if std::is_x86_feature_detected!("avx2") {
-            return "avx2";
-        }
-    }
-    "portable"
+/// A form of the sixteen-wide walk (`RayTracer::trace_maxmip_wide` and its variants).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Wide {
+    /// AVX-512F lanes (`trace_maxmip_wide_avx512`).
+    Avx512,
+    /// AVX2 registers (`trace_maxmip_wide_avx2`).
+    Avx2,
+    /// Portable lanes (`trace_maxmip_wide`).
+    Portable,
 }
 
-/// The max-mip path taken without --no-packet, as `(packet, wide)` ([`wide_kind`]): AVX-512
-/// packets where the CPU has AVX-512F and DQ; else the sixteen-wide walk in AVX2, ray by ray,
-/// where it has AVX2 (1.2-1.3x the neighbour walk there, BENCHMARKS.md "The sixteen-wide walk
-/// in AVX2"); else the portable packets (the neighbour walk, ray by ray).
-fn default_mip_path() -> (&'static str, Option<&'static str>) {
+impl Wide {
+    /// The best form this CPU runs.
+    fn detect() -> Wide {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::is_x86_feature_detected!("avx512f") {
+                return Wide::Avx512;
+            }
+            if std::is_x86_feature_detected!("avx2") {
+                return Wide::Avx2;
+            }
+        }
+        Wide::Portable
+    }
+
+    /// Its name in the JSON `walk` field (`wide-` and this).
+    fn name(self) -> &'static str {
+        match self {
+            Wide::Avx512 => "avx512",
+            Wide::Avx2 => "avx2",
+            Wide::Portable => "portable",
+        }
+    }
+}
+
+/// The max-mip path taken without --no-packet, as `(packet, wide)`: AVX-512 packets where the
+/// CPU has AVX-512F and DQ; else the sixteen-wide walk in AVX2, ray by ray, where it has AVX2
+/// (1.2-1.3x the neighbour walk there, BENCHMARKS.md "The sixteen-wide walk in AVX2"); else
+/// the portable packets (the neighbour walk, ray by ray).
+fn default_mip_path() -> (&'static str, Option<Wide>) {
     if has_avx512() {
         ("avx512", None)
-    } else if wide_kind() == "avx2" {
-        ("off", Some("avx2"))
+    } else if Wide::detect() == Wide::Avx2 {
+        ("off", Some(Wide::Avx2))
     } else {
         ("portable", None)
     }
 }
 
-/// One max-mip ray, through the sixteen-wide walk of form `wide` ([`wide_kind`]) or, for
-/// `None`, the neighbour walk.
+/// One max-mip ray, through the sixteen-wide walk of form `wide` (one that [`Wide::detect`]
+/// allows on this CPU) or, for `None`, the neighbour walk.
 fn trace_one(
     tracer: &RayTracer<'_, Heightfield<'_, f32>>,
     ray: &Ray,
     mip: &MaxMip<'_>,
-    wide: Option<&str>,
+    wide: Option<Wide>,
 ) -> Result<Trace, relief_core::Error> {
     match wide {
         None => tracer.trace_maxmip(ray, mip),
-        // SAFETY: `wide_kind` names `avx512` only where the CPU has AVX-512F.
+        // SAFETY: callers pass `Avx512` only where `Wide::detect` found AVX-512F.
         #[cfg(target_arch = "x86_64")]
-        Some("avx512") => unsafe { tracer.trace_maxmip_wide_avx512(ray, mip) },
-        // SAFETY: `wide_kind` names `avx2` only where the CPU has AVX2.
+        Some(Wide::Avx512) => unsafe { tracer.trace_maxmip_wide_avx512(ray, mip) },
+        // SAFETY: callers pass `Avx2` only where `Wide::detect` found AVX2 (and no AVX-512F).
         #[cfg(target_arch = "x86_64")]
-        Some("avx2") => unsafe { tracer.trace_maxmip_wide_avx2(ray, mip) },
+        Some(Wide::Avx2) => unsafe { tracer.trace_maxmip_wide_avx2(ray, mip) },
         Some(_) => tracer.trace_maxmip_wide(ray, mip),
     }
 }
@@ -293,7 +314,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
     let mut depth = vec![f32::INFINITY; w as usize * h as usize];
     let (packet, wide) = match (a.method, a.no_packet) {
         (Method::Maxmip, false) => default_mip_path(),
-        (Method::Maxmip, true) => ("off", a.wide.then(wide_kind)),
+        (Method::Maxmip, true) => ("off", a.wide.then(Wide::detect)),
         _ => ("off", None),
     };
     // Camera rays, made before the clock starts so that `trace_ms` counts tracing only (as the
@@ -487,7 +508,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
             "steps": stats.steps,
             "packet": packet,
             "walk": match (a.method, wide) {
-                (Method::Maxmip, Some(k)) => format!("wide-{k}"),
+                (Method::Maxmip, Some(k)) => format!("wide-{}", k.name()),
                 (Method::Maxmip, None) => "neighbour".into(),
                 _ => "none".into(),
             },

@@ -139,8 +139,8 @@ impl Axis {
     /// with nodes of size `s`: whether its node lies inside the grid and, when the ray does not
     /// move along this axis, holds it (the node the neighbour walk's `floor` picks, the last
     /// one for `o == n`), and its slab parameters (`slab_signed` of `maxmip.rs`; `-inf, inf`
-    /// for a zero component). The same operations as the AVX-512 node's `Axis::span`, written
-    /// without branches so that sixteen lanes of it vectorise.
+    /// for a zero component). The same operations as the AVX2 and AVX-512 nodes' `Axis::span`;
+    /// the walk also calls it for a cell's interval (`c = 0`, `s = 1`).
     #[inline(always)]
     fn span(&self, c: f64, base: f64, s: f64) -> (bool, f64, f64) {
         let lo = base + c * s;
