@@ -667,6 +667,38 @@ fn mip_table() {
             );
             rows(&format!("sixteen-wide walk, {label}"), whole, chunks);
         }
+        // The slice form of the wide walk (two rays' walks interleaved), AVX2 where detected.
+        let wide_rays = |rs: &[Ray], os: &mut [Trace]| {
+            #[cfg(target_arch = "x86_64")]
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: AVX2 detected above.
+                return unsafe { tracer.trace_maxmip_wide_rays_avx2(rs, &mip, os) }.unwrap();
+            }
+            tracer.trace_maxmip_wide_rays(rs, &mip, os).unwrap();
+        };
+        let mut ow = vec![Trace::default(); rays.len()];
+        wide_rays(&rays, &mut ow);
+        for (r, w) in rays.iter().zip(&ow) {
+            assert_eq!(*w, tracer.trace_maxmip_wide(r, &mip).unwrap());
+        }
+        let by_rays = |rs: &[Ray], os: &mut [Trace]| {
+            wide_rays(rs, os);
+            os.iter().filter(|t| t.hit.is_some()).count() as u64
+        };
+        let whole = interleaved(15, mm, || by_rays(&rays, &mut ow));
+        let mut ow2 = vec![Trace::default(); rays.len()];
+        let chunks = chunked(
+            rays.len(),
+            512,
+            9,
+            |rg| by_ray(&rays[rg]),
+            |rg| by_rays(&rays[rg.clone()], &mut ow2[rg]),
+        );
+        rows(
+            "sixteen-wide walk, two rays interleaved (AVX2 where detected)",
+            whole,
+            chunks,
+        );
     }
 }
 

@@ -97,9 +97,20 @@ fuzz_target!(|data: &[u8]| {
         assert_eq!(simd, out);
     }
     // The sixteen-wide walk: the same hit, the same cells tested or fewer (cells the ray only
-    // touches at a point are skipped); its AVX2 and AVX-512 forms the portable one's traces.
-    for (r, t) in rays.iter().zip(&out) {
+    // touches at a point are skipped); its AVX2 and AVX-512 forms the portable one's traces,
+    // and its slice forms (two walks interleaved) each ray's trace alone.
+    let mut wides = vec![Trace::default(); rays.len()];
+    tracer.trace_maxmip_wide_rays(&rays, &mip, &mut wides).unwrap();
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        let mut w2 = vec![Trace::default(); rays.len()];
+        // SAFETY: the CPU has AVX2.
+        unsafe { tracer.trace_maxmip_wide_rays_avx2(&rays, &mip, &mut w2) }.unwrap();
+        assert_eq!(w2, wides);
+    }
+    for ((r, t), w) in rays.iter().zip(&out).zip(&wides) {
         let wide = tracer.trace_maxmip_wide(r, &mip).unwrap();
+        assert_eq!(*w, wide);
         assert_eq!(wide.hit, t.hit);
         assert!(wide.cells <= t.cells, "{wide:?} {t:?}");
         #[cfg(target_arch = "x86_64")]

@@ -47,20 +47,24 @@ fn packet_variants(
     v.push(("portable", o));
     #[cfg(target_arch = "x86_64")]
     if has_avx512() {
-        // Stale contents must be overwritten.
-        let mut o = vec![
-            Trace {
-                cells: 77,
-                steps: 77,
-                hit: None
-            };
-            rays.len()
-        ];
+        let mut o = stale(rays.len());
         // SAFETY: the CPU has AVX-512F and AVX-512DQ.
         unsafe { t.trace_maxmip_packet_avx512(rays, mip, &mut o) }.unwrap();
         v.push(("avx512", o));
     }
     v
+}
+
+/// Traces with stale contents, which the paths must overwrite.
+fn stale(n: usize) -> Vec<Trace> {
+    vec![
+        Trace {
+            cells: 77,
+            steps: 77,
+            hit: None
+        };
+        n
+    ]
 }
 
 /// One sixteen-wide walk.
@@ -85,6 +89,29 @@ fn wide_variants() -> Vec<(&'static str, WideFn)> {
                 t.trace_maxmip_wide_avx512(r, m)
             }));
         }
+    }
+    v
+}
+
+/// One slice form of the sixteen-wide walk.
+type WideRaysFn = fn(
+    &RayTracer<'_, Heightfield<'_, f32>>,
+    &[Ray],
+    &MaxMip<'_>,
+    &mut [Trace],
+) -> Result<(), Error>;
+
+/// Every slice form of the sixteen-wide walk this CPU runs: portable, and AVX2 where detected.
+fn wide_rays_variants() -> Vec<(&'static str, WideRaysFn)> {
+    let mut v: Vec<(&'static str, WideRaysFn)> = vec![("wide rays portable", |t, r, m, o| {
+        t.trace_maxmip_wide_rays(r, m, o)
+    })];
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        // SAFETY: called only where the CPU has AVX2.
+        v.push(("wide rays avx2", |t, r, m, o| unsafe {
+            t.trace_maxmip_wide_rays_avx2(r, m, o)
+        }));
     }
     v
 }
@@ -143,6 +170,18 @@ fn assert_packets_equal(
                     "{name}: hit bits differ for ray {i}"
                 );
             }
+        }
+    }
+    // The slice forms of the wide walk (two walks interleaved): each ray's trace as alone.
+    for (name, wide_rays) in wide_rays_variants() {
+        let mut o = stale(rays.len());
+        wide_rays(t, rays, mip, &mut o).unwrap();
+        for (i, (g, r)) in o.iter().zip(rays).enumerate() {
+            assert_eq!(*g, t.trace_maxmip_wide(r, mip).unwrap(), "{name}, ray {i}");
+        }
+        if !rays.is_empty() {
+            let n = rays.len() - 1;
+            assert!(wide_rays(t, rays, mip, &mut o[..n]).is_err(), "{name}");
         }
     }
     scalar.iter().filter(|s| s.hit.is_some()).count()

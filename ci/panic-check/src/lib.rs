@@ -240,11 +240,17 @@ pub unsafe extern "C" fn pc_rays(
         sum += tracer
             .trace_maxmip_wide(&ray, &m)
             .map_or(0.0, |t| t.hit.map_or(0.0, |h| h.t) + f64::from(t.steps));
+        if tracer.trace_maxmip_wide_rays(part, &m, &mut out).is_ok() {
+            sum += out.iter().map(|t| t.steps as f64).sum::<f64>();
+        }
         #[cfg(target_arch = "x86_64")]
         {
             sum += tracer
                 .trace_maxmip_wide_avx2(&ray, &m)
                 .map_or(0.0, |t| t.hit.map_or(0.0, |h| h.t) + f64::from(t.cells));
+            if tracer.trace_maxmip_wide_rays_avx2(part, &m, &mut out).is_ok() {
+                sum += out.iter().map(|t| t.cells as f64).sum::<f64>();
+            }
             sum += tracer
                 .trace_maxmip_wide_avx512(&ray, &m)
                 .map_or(0.0, |t| t.hit.map_or(0.0, |h| h.t) + f64::from(t.steps));

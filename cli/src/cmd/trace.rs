@@ -82,7 +82,8 @@ pub struct TraceArgs {
     view_dependent_samples: Option<u32>,
     /// Max-mip only: trace ray by ray with the neighbour walk instead of the default path for
     /// this CPU: AVX-512 packets (8 rays per register) where it has AVX-512F and DQ, else the
-    /// sixteen-wide walk in AVX2 where it has AVX2 (same results; for speed comparisons).
+    /// sixteen-wide walk in AVX2, two rays interleaved, where it has AVX2 (same results; for
+    /// speed comparisons).
     #[arg(long)]
     no_packet: bool,
     /// Max-mip only, with --no-packet: trace ray by ray through sixteen-wide nodes (two
@@ -200,15 +201,17 @@ impl Wide {
     }
 }
 
-/// The max-mip path taken without --no-packet, as `(packet, wide)`: AVX-512 packets where the
-/// CPU has AVX-512F and DQ; else the sixteen-wide walk in AVX2, ray by ray, where it has AVX2
-/// (1.2-1.3x the neighbour walk there, BENCHMARKS.md "The sixteen-wide walk in AVX2"); else
-/// the portable packets (the neighbour walk, ray by ray).
+/// The max-mip path taken without --no-packet, as `(packet, wide)`: AVX-512 packets
+/// (`avx512`) where the CPU has AVX-512F and DQ; else, where it has AVX2, the rows handed as
+/// slices to the sixteen-wide walk in AVX2, which interleaves two rays' walks (`wide-avx2`;
+/// 1.2-1.3x the neighbour walk ray by ray, and 1.17x that again, BENCHMARKS.md "The
+/// sixteen-wide walk in AVX2"); else the portable packets (`portable`: the neighbour walk, ray
+/// by ray).
 fn default_mip_path() -> (&'static str, Option<Wide>) {
     if has_avx512() {
         ("avx512", None)
     } else if Wide::detect() == Wide::Avx2 {
-        ("off", Some(Wide::Avx2))
+        ("wide-avx2", Some(Wide::Avx2))
     } else {
         ("portable", None)
     }
@@ -234,18 +237,24 @@ fn trace_one(
     }
 }
 
-/// Max-mip packet tracing with the best variant for this CPU (same results for every variant).
+/// Max-mip tracing of a slice of rays by the path `packet` names ([`default_mip_path`]; the
+/// same results for every path).
 fn trace_packet(
     tracer: &RayTracer<'_, Heightfield<'_, f32>>,
     rays: &[Ray],
     mip: &MaxMip<'_>,
     out: &mut [Trace],
+    packet: &str,
 ) -> Result<(), relief_core::Error> {
     #[cfg(target_arch = "x86_64")]
-    if has_avx512() {
-        // SAFETY: the CPU has AVX-512F and AVX-512DQ, the requirements of the `avx512` variant.
-        return unsafe { tracer.trace_maxmip_packet_avx512(rays, mip, out) };
+    match packet {
+        // SAFETY: `default_mip_path` names `avx512` only where the CPU has AVX-512F and DQ.
+        "avx512" => return unsafe { tracer.trace_maxmip_packet_avx512(rays, mip, out) },
+        // SAFETY: `default_mip_path` names `wide-avx2` only where the CPU has AVX2.
+        "wide-avx2" => return unsafe { tracer.trace_maxmip_wide_rays_avx2(rays, mip, out) },
+        _ => {}
     }
+    let _ = packet;
     tracer.trace_maxmip_packet(rays, mip, out)
 }
 
@@ -354,7 +363,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
         };
         if let (Accel::Mip(mip), true) = (&accel, packet != "off") {
             let mut traces = vec![Trace::default(); rays.len()];
-            trace_packet(&tracer, rays, mip, &mut traces).map_err(|e| e.to_string())?;
+            trace_packet(&tracer, rays, mip, &mut traces, packet).map_err(|e| e.to_string())?;
             for (px, tr) in row.iter_mut().zip(&traces) {
                 st.record(tr, px);
             }
@@ -388,7 +397,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
     let trace_slice = |rays: &[Ray], out: &mut [Trace]| -> Result<(), String> {
         match (&accel, a.method) {
             (Accel::Mip(mip), _) if packet != "off" => {
-                trace_packet(&tracer, rays, mip, out).map_err(|e| e.to_string())
+                trace_packet(&tracer, rays, mip, out, packet).map_err(|e| e.to_string())
             }
             (Accel::Mip(mip), _) => {
                 for (r, o) in rays.iter().zip(out.iter_mut()) {

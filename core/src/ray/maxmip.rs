@@ -401,6 +401,24 @@ pub(super) fn start_level(mip: &MaxMip<'_>) -> u32 {
 }
 
 impl<T: Terrain> RayTracer<'_, T> {
+    /// The checks of the entry points that trace a slice of rays into `out`: `mip` belongs to
+    /// this grid ([`Self::check_mip`]) and `out` holds a trace per ray.
+    pub(super) fn check_rays(
+        &self,
+        rays: &[Ray],
+        mip: &MaxMip<'_>,
+        out: &[Trace],
+    ) -> Result<(), Error> {
+        self.check_mip(mip)?;
+        if out.len() < rays.len() {
+            return Err(Error::BufferTooSmall {
+                needed: rays.len(),
+                actual: out.len(),
+            });
+        }
+        Ok(())
+    }
+
     pub(super) fn check_mip(&self, mip: &MaxMip<'_>) -> Result<(), Error> {
         if mip.nx != self.cells.x || mip.ny != self.cells.y {
             return Err(Error::LengthMismatch {
@@ -605,13 +623,7 @@ impl<T: Terrain> RayTracer<'_, T> {
         mip: &MaxMip<'_>,
         out: &mut [Trace],
     ) -> Result<(), Error> {
-        self.check_mip(mip)?;
-        if out.len() < rays.len() {
-            return Err(Error::BufferTooSmall {
-                needed: rays.len(),
-                actual: out.len(),
-            });
-        }
+        self.check_rays(rays, mip, out)?;
         self.each_ray(rays, mip, out);
         Ok(())
     }

@@ -298,13 +298,7 @@ impl<T: Terrain> RayTracer<'_, T> {
         mip: &MaxMip<'_>,
         out: &mut [Trace],
     ) -> Result<(), Error> {
-        self.check_mip(mip)?;
-        if out.len() < rays.len() {
-            return Err(Error::BufferTooSmall {
-                needed: rays.len(),
-                actual: out.len(),
-            });
-        }
+        self.check_rays(rays, mip, out)?;
         if mip.levels > TABLE_LEVELS {
             self.each_ray(rays, mip, out);
             return Ok(());

@@ -278,10 +278,18 @@ fn trace_exact(hf: &Heightfield<'_, f32>, surface: Surface, ray: &Ray) -> Option
     assert_eq!(packet[1], m);
     assert_eq!(packet[2], m);
     assert_eq!(packet[0], t.trace_maxmip(&down, &mip).unwrap());
-    // The sixteen-wide walk (portable form): the same hit, the same cells or fewer.
+    // The sixteen-wide walk (portable form): the same hit, the same cells or fewer; its slice
+    // form the same trace alone and among other rays.
     let wide = t.trace_maxmip_wide(ray, &mip).unwrap();
     assert_eq!(wide.hit, m.hit, "wide walk for {ray:?}");
     assert!(wide.cells <= m.cells, "{wide:?} {m:?}");
+    let mut wides = [Trace::default(); 3];
+    t.trace_maxmip_wide_rays(&[*ray, down, *ray], &mip, &mut wides)
+        .unwrap();
+    assert_eq!(
+        wides,
+        [wide, t.trace_maxmip_wide(&down, &mip).unwrap(), wide]
+    );
     assert!(c.steps as u64 <= t.step_bound());
     assert!(
         (m.steps as u64) < mip.step_bound(),

@@ -32,9 +32,13 @@
 //!   register;
 //! - AVX-512 (`wide/avx512.rs`), two registers of eight lanes in crossing order.
 //!
-//! A cell's interval is computed again, in scalar, when it is tested. Measured on the bundled
-//! DEM (BENCHMARKS.md, "The sixteen-wide walk in AVX2"): AVX2 1.2-1.3x the neighbour walk ray
-//! by ray, the portable form 0.8-0.9x (the compiler does not vectorise it well).
+//! A cell's interval is computed again, in scalar, when it is tested. The slice forms
+//! ([`RayTracer::trace_maxmip_wide_rays`], `trace_maxmip_wide_rays_avx2`) keep two rays' walks
+//! in flight and make a pass of each in turn: a pass is one long dependent chain (the tile's
+//! load, the slabs, the compares, the mask, the next child), and two independent chains
+//! overlap. Measured on the bundled DEM (BENCHMARKS.md, "The sixteen-wide walk in AVX2"): AVX2
+//! 1.2-1.3x the neighbour walk ray by ray and two interleaved 1.1-1.2x that again, the portable
+//! form 0.8-0.9x the neighbour walk (the compiler does not vectorise it well).
 
 use super::cell::{CellHit, LocalRay};
 use super::maxmip::{max_f, min_f, MaxMip};
@@ -175,6 +179,22 @@ struct Consts {
     cross: &'static [[u16; 256]; 2],
 }
 
+impl Consts {
+    /// The constants of clipped ray `lr` in octant `oct`.
+    fn new(lr: &LocalRay, oct: usize, mip: &MaxMip<'_>) -> Consts {
+        Consts {
+            x: Axis::new(lr.o.x, lr.d.x, lr.inv[0], mip.nx),
+            y: Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny),
+            oz: lr.o.z,
+            dz: lr.d.z,
+            down: lr.d.z < 0.0,
+            t0: lr.t0,
+            t1: lr.t1,
+            cross: &CROSSING[oct & 3],
+        }
+    }
+}
+
 /// A node: the level of its children, its index on its own level, and the children left.
 #[derive(Clone, Copy)]
 struct Node {
@@ -182,6 +202,70 @@ struct Node {
     ix: u32,
     iy: u32,
     mask: u32,
+}
+
+/// Walks [`RayTracer::wide_rays`] interleaves. Two overlapped the chains of a walk's passes
+/// (1.17x one at a time on the Puget camera view with the AVX2 node); three read the same as
+/// two (BENCHMARKS.md, "The sixteen-wide walk in AVX2").
+const WIDE_INTERLEAVED: usize = 2;
+
+/// One ray's sixteen-wide walk in progress.
+struct WideWalk<C> {
+    /// The ray's index in its slice ([`RayTracer::wide_rays`]).
+    i: usize,
+    lr: LocalRay,
+    /// The ray's constants for the node test of its form.
+    c: C,
+    /// The ray's axes, for the cells' intervals.
+    x: Axis,
+    y: Axis,
+    /// The ray's octant ([`ORDER`]).
+    oct: usize,
+    cur: Node,
+    /// Nodes with children left below `cur`: at most one per level pair.
+    stack: [Node; 17],
+    sp: usize,
+    nodes: u64,
+    passes: u64,
+    /// The trace so far.
+    tr: Trace,
+}
+
+impl<C> WideWalk<C> {
+    /// A walk from the root node on level `root` (children on `root - 2`), whose children to
+    /// enter are `mask`.
+    fn new(
+        i: usize,
+        lr: LocalRay,
+        c: C,
+        mip: &MaxMip<'_>,
+        (root, oct, mask): (u32, usize, u32),
+    ) -> WideWalk<C> {
+        let cur = Node {
+            child: root - 2,
+            ix: 0,
+            iy: 0,
+            mask,
+        };
+        WideWalk {
+            i,
+            x: Axis::new(lr.o.x, lr.d.x, lr.inv[0], mip.nx),
+            y: Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny),
+            lr,
+            c,
+            oct,
+            cur,
+            stack: [cur; 17],
+            sp: 0,
+            nodes: 1,
+            passes: 0,
+            tr: Trace {
+                hit: None,
+                cells: 0,
+                steps: 1,
+            },
+        }
+    }
 }
 
 impl<T: Terrain> RayTracer<'_, T> {
@@ -215,23 +299,55 @@ impl<T: Terrain> RayTracer<'_, T> {
         Ok(out)
     }
 
+    /// [`RayTracer::trace_maxmip_wide`] for every ray of `rays` into `out`, two walks
+    /// interleaved (a pass of each in turn, so that the dependent chains of the two rays'
+    /// passes overlap): the same traces, ray for ray. [`Error::BufferTooSmall`] if `out` is
+    /// shorter than `rays`, [`Error::LengthMismatch`] if `mip` belongs to another grid size.
+    ///
+    /// ```
+    /// use relief_core::ray::{MaxMip, Ray, RayTracer, Trace};
+    /// use relief_core::{Heightfield, Surface};
+    /// use glam::Vec3;
+    /// let s: Vec<f32> = (0..81 * 81).map(|i| ((i * 37) % 11) as f32).collect();
+    /// let hf = Heightfield::new(&s, 81, 81).unwrap();
+    /// let mut buf = vec![0.0; MaxMip::len(81, 81).unwrap()];
+    /// let mip = MaxMip::build(&hf, &mut buf).unwrap();
+    /// let t = RayTracer::new(&hf, Surface::Triangles);
+    /// let rays: Vec<Ray> = (0..20)
+    ///     .map(|i| Ray::new(Vec3::new(-3.0, 0.5 + 3.0 * i as f32, 14.0), Vec3::new(1.0, 0.7, -0.2)).unwrap())
+    ///     .collect();
+    /// let mut out = vec![Trace::default(); rays.len()];
+    /// t.trace_maxmip_wide_rays(&rays, &mip, &mut out).unwrap();
+    /// for (r, o) in rays.iter().zip(&out) {
+    ///     assert_eq!(*o, t.trace_maxmip_wide(r, &mip).unwrap());
+    /// }
+    /// assert!(t.trace_maxmip_wide_rays(&rays, &mip, &mut out[..19]).is_err());
+    /// ```
+    pub fn trace_maxmip_wide_rays(
+        &self,
+        rays: &[Ray],
+        mip: &MaxMip<'_>,
+        out: &mut [Trace],
+    ) -> Result<(), Error> {
+        self.check_rays(rays, mip, out)?;
+        self.wide_rays(
+            rays,
+            mip,
+            out,
+            |lr, oct| Consts::new(lr, oct, mip),
+            |c, child, ix, iy| wide_node(mip, c, child, ix, iy),
+        );
+        Ok(())
+    }
+
     /// The walk with the portable node.
     fn wide_portable(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) {
-        let Some((lr, root, oct)) = self.wide_start(ray, mip, out) else {
+        let Some(st) = self.wide_start(ray, mip, out) else {
             return;
         };
-        let c = Consts {
-            x: Axis::new(lr.o.x, lr.d.x, lr.inv[0], mip.nx),
-            y: Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny),
-            oz: lr.o.z,
-            dz: lr.d.z,
-            down: lr.d.z < 0.0,
-            t0: lr.t0,
-            t1: lr.t1,
-            cross: &CROSSING[oct & 3],
-        };
-        self.wide_loop(ray, mip, out, &lr, (root, oct), |child, ix, iy| {
-            wide_node(mip, &c, child, ix, iy)
+        let c = Consts::new(&st.0, st.2, mip);
+        self.wide_loop(ray, mip, out, st, c, |c, child, ix, iy| {
+            wide_node(mip, c, child, ix, iy)
         });
     }
 
@@ -259,87 +375,157 @@ impl<T: Terrain> RayTracer<'_, T> {
         Some((lr, root, oct))
     }
 
-    /// The walk from the root: `node(child, ix, iy)` tests the sixteen children (on level
-    /// `child`) of node `(ix, iy)` two levels up and gives the mask of those to enter, in
-    /// crossing order. A cell's interval is computed again when it is tested, with the scalar
-    /// form of the node's operations ([`Axis::span`]), rather than kept from its node's test
-    /// for every lane (the same values).
+    /// The walk of one ray from the root: `node(c, child, ix, iy)` tests the sixteen children
+    /// (on level `child`) of node `(ix, iy)` two levels up with the ray's node constants `c`
+    /// and gives the mask of those to enter, in crossing order.
     #[inline(always)]
-    fn wide_loop(
+    fn wide_loop<C>(
         &self,
         ray: &Ray,
         mip: &MaxMip<'_>,
         out: &mut Trace,
-        lr: &LocalRay,
-        (root, oct): (u32, usize),
-        mut node: impl FnMut(u32, u32, u32) -> u32,
+        (lr, root, oct): (LocalRay, u32, usize),
+        c: C,
+        node: impl Fn(&C, u32, u32, u32) -> u32,
     ) {
-        let ord = &ORDER[oct & 3];
-        let x = Axis::new(lr.o.x, lr.d.x, lr.inv[0], mip.nx);
-        let y = Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny);
-        let mask = node(root - 2, 0, 0);
-        let mut cur = Node {
-            child: root - 2,
-            ix: 0,
-            iy: 0,
-            mask,
-        };
-        let mut nodes = 1u64;
-        // Nodes with children left below `cur`: at most one per level pair.
-        let mut stack = [cur; 17];
-        let mut sp = 0usize;
-        // Bounded: each pass takes one child the ray's segment crosses, at most
-        // `mip.step_bound()` over all levels (a line crosses at most `w + h + 1` nodes of a
-        // `w x h` level), and a node is only pushed with a child left.
-        let mut passes = 0u64;
-        while passes < mip.bound {
-            passes += 1;
-            if cur.mask == 0 {
-                if sp == 0 {
-                    break;
-                }
-                sp -= 1;
-                let Some(&n) = stack.get(sp) else {
-                    break;
-                };
-                cur = n;
-            }
-            let j = (cur.mask.trailing_zeros() & 15) as usize;
-            cur.mask &= cur.mask - 1;
-            let [kx, ky] = ord[j];
-            let (gx, gy) = (4 * cur.ix + kx, 4 * cur.iy + ky);
-            if cur.child == 0 {
-                out.cells += 1;
-                // Cell `(gx, gy)`: child 0 of a block at `(gx, gy)` with nodes of size 1,
-                // the operations and values of its lane in the node's test.
-                let (_, ax, ex) = x.span(0.0, f64::from(gx), 1.0);
-                let (_, ay, ey) = y.span(0.0, f64::from(gy), 1.0);
-                let ta = max_f(max_f(lr.t0, ax), ay);
-                let tb = min_f(min_f(lr.t1, ex), ey);
-                if let Some(h) = self.wide_cell(lr, gx, gy, ta, tb) {
-                    out.hit = Some(self.wide_hit(ray, gx, gy, h));
-                    break;
-                }
-                continue;
-            }
-            let mask = node(cur.child - 2, gx, gy);
-            nodes += 1;
-            if mask != 0 {
-                if cur.mask != 0 {
-                    if let Some(e) = stack.get_mut(sp) {
-                        *e = cur;
-                        sp += 1;
-                    }
-                }
-                cur = Node {
-                    child: cur.child - 2,
-                    ix: gx,
-                    iy: gy,
-                    mask,
-                };
+        let mask = node(&c, root - 2, 0, 0);
+        let mut w = WideWalk::new(0, lr, c, mip, (root, oct, mask));
+        // Bounded: `wide_step` ends the walk after `mip.bound` passes.
+        for _ in 0..=mip.bound {
+            if self.wide_step(ray, mip, &mut w, &node) {
+                break;
             }
         }
-        out.steps = u32::try_from(nodes).unwrap_or(u32::MAX);
+        *out = w.tr;
+    }
+
+    /// [`Self::wide_loop`] for each ray of `rays` into `out` (at least as long; the caller
+    /// checks), [`WIDE_INTERLEAVED`] walks at a time, a pass of each in turn, so that their
+    /// dependent chains of loads and compares overlap; a walk that ends takes the next ray.
+    /// `start` makes a ray's node constants from its clipped ray and octant.
+    #[inline(always)]
+    fn wide_rays<C>(
+        &self,
+        rays: &[Ray],
+        mip: &MaxMip<'_>,
+        out: &mut [Trace],
+        start: impl Fn(&LocalRay, usize) -> C,
+        node: impl Fn(&C, u32, u32, u32) -> u32,
+    ) {
+        let mut walks: [Option<WideWalk<C>>; WIDE_INTERLEAVED] = [const { None }; WIDE_INTERLEAVED];
+        let mut next = 0usize;
+        // Bounded: each round makes a pass of every walk or starts rays; a ray takes at most
+        // `mip.bound + 1` passes, so `rays * (mip.bound + 2) + 1` rounds cover every ray.
+        let rounds = (rays.len() as u64)
+            .saturating_mul(mip.bound.saturating_add(2))
+            .saturating_add(1);
+        for _ in 0..rounds {
+            for slot in walks.iter_mut() {
+                // Refill: rays that end at their start (a miss, a hit at the start) are written
+                // at once.
+                while slot.is_none() && next < rays.len() {
+                    let i = next;
+                    next += 1;
+                    let (Some(ray), Some(o)) = (rays.get(i), out.get_mut(i)) else {
+                        break;
+                    };
+                    *o = Trace::default();
+                    if let Some((lr, root, oct)) = self.wide_start(ray, mip, o) {
+                        let c = start(&lr, oct);
+                        let mask = node(&c, root - 2, 0, 0);
+                        *slot = Some(WideWalk::new(i, lr, c, mip, (root, oct, mask)));
+                    }
+                }
+            }
+            let mut busy = false;
+            for slot in walks.iter_mut() {
+                let Some(w) = slot else {
+                    continue;
+                };
+                busy = true;
+                let Some(ray) = rays.get(w.i) else {
+                    *slot = None;
+                    continue;
+                };
+                if self.wide_step(ray, mip, w, &node) {
+                    if let Some(o) = out.get_mut(w.i) {
+                        *o = w.tr;
+                    }
+                    *slot = None;
+                }
+            }
+            if !busy {
+                break;
+            }
+        }
+    }
+
+    /// One pass of a walk: takes the current node's next child (the lowest bit of its mask, or
+    /// pops a node when it has none left) and tests it, a cell exactly, a node by `node`.
+    /// `true` when the walk is done: a hit, no node left, or `mip.bound` passes (each pass
+    /// takes one child the ray's segment crosses, at most `mip.step_bound()` over all levels,
+    /// since a line crosses at most `w + h + 1` nodes of a `w x h` level, and a node is only
+    /// pushed with a child left). A cell's interval is computed again when it is tested, with
+    /// the scalar form of the node's operations ([`Axis::span`]), rather than kept from its
+    /// node's test for every lane (the same values).
+    #[inline(always)]
+    fn wide_step<C>(
+        &self,
+        ray: &Ray,
+        mip: &MaxMip<'_>,
+        w: &mut WideWalk<C>,
+        node: &impl Fn(&C, u32, u32, u32) -> u32,
+    ) -> bool {
+        if w.passes >= mip.bound {
+            return true;
+        }
+        w.passes += 1;
+        if w.cur.mask == 0 {
+            if w.sp == 0 {
+                return true;
+            }
+            w.sp -= 1;
+            let Some(&n) = w.stack.get(w.sp) else {
+                return true;
+            };
+            w.cur = n;
+        }
+        let j = (w.cur.mask.trailing_zeros() & 15) as usize;
+        w.cur.mask &= w.cur.mask - 1;
+        let [kx, ky] = ORDER[w.oct & 3][j];
+        let (gx, gy) = (4 * w.cur.ix + kx, 4 * w.cur.iy + ky);
+        if w.cur.child == 0 {
+            w.tr.cells += 1;
+            // Cell `(gx, gy)`: child 0 of a block at `(gx, gy)` with nodes of size 1, the
+            // operations and values of its lane in the node's test.
+            let (_, ax, ex) = w.x.span(0.0, f64::from(gx), 1.0);
+            let (_, ay, ey) = w.y.span(0.0, f64::from(gy), 1.0);
+            let ta = max_f(max_f(w.lr.t0, ax), ay);
+            let tb = min_f(min_f(w.lr.t1, ex), ey);
+            if let Some(h) = self.wide_cell(&w.lr, gx, gy, ta, tb) {
+                w.tr.hit = Some(self.wide_hit(ray, gx, gy, h));
+                return true;
+            }
+            return false;
+        }
+        let mask = node(&w.c, w.cur.child - 2, gx, gy);
+        w.nodes += 1;
+        w.tr.steps = u32::try_from(w.nodes).unwrap_or(u32::MAX);
+        if mask != 0 {
+            if w.cur.mask != 0 {
+                if let Some(e) = w.stack.get_mut(w.sp) {
+                    *e = w.cur;
+                    w.sp += 1;
+                }
+            }
+            w.cur = Node {
+                child: w.cur.child - 2,
+                ix: gx,
+                iy: gy,
+                mask,
+            };
+        }
+        false
     }
 
     /// The exact test of cell `(cx, cy)` over `[ta, tb]`, out of line: the surfaces' tests may

@@ -6,6 +6,7 @@
 //! neighbour walk's step) in the same order, so the traces are the same.
 
 use super::CROSSING;
+use crate::ray::cell::LocalRay;
 use crate::ray::maxmip::MaxMip;
 use crate::ray::{Ray, RayTracer, Trace};
 use crate::{Error, Terrain};
@@ -119,10 +120,74 @@ impl<T: Terrain> RayTracer<'_, T> {
     pub fn trace_maxmip_wide_avx2(&self, ray: &Ray, mip: &MaxMip<'_>) -> Result<Trace, Error> {
         self.check_mip(mip)?;
         let mut out = Trace::default();
-        let Some((lr, root, oct)) = self.wide_start(ray, mip, &mut out) else {
+        let Some(st) = self.wide_start(ray, mip, &mut out) else {
             return Ok(out);
         };
-        let c = Consts {
+        let c = Consts::new(&st.0, st.2, mip);
+        self.wide_loop(ray, mip, &mut out, st, c, |c, child, ix, iy| {
+            node(mip, c, child, ix, iy)
+        });
+        Ok(out)
+    }
+
+    /// [`RayTracer::trace_maxmip_wide_rays`] with its node test in AVX2 registers (x86-64
+    /// only): the same traces, two rays' walks interleaved. Safe to call only where the CPU has
+    /// AVX2 (check with `is_x86_feature_detected!` on the std side).
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX2 (a `#[target_feature]` function: calling it elsewhere is
+    /// undefined behaviour). The function itself uses no `unsafe`.
+    ///
+    /// ```
+    /// # #[cfg(target_arch = "x86_64")] {
+    /// use relief_core::ray::{MaxMip, Ray, RayTracer, Trace};
+    /// use relief_core::{Heightfield, Surface};
+    /// use glam::Vec3;
+    /// let s: Vec<f32> = (0..81 * 81).map(|i| ((i * 37) % 11) as f32).collect();
+    /// let hf = Heightfield::new(&s, 81, 81).unwrap();
+    /// let mut buf = vec![0.0; MaxMip::len(81, 81).unwrap()];
+    /// let mip = MaxMip::build(&hf, &mut buf).unwrap();
+    /// let t = RayTracer::new(&hf, Surface::Triangles);
+    /// let rays: Vec<Ray> = (0..20)
+    ///     .map(|i| Ray::new(Vec3::new(-3.0, 0.5 + 3.0 * i as f32, 14.0), Vec3::new(1.0, 0.7, -0.2)).unwrap())
+    ///     .collect();
+    /// let mut out = vec![Trace::default(); rays.len()];
+    /// if std::is_x86_feature_detected!("avx2") {
+    ///     // SAFETY: the CPU has AVX2.
+    ///     unsafe { t.trace_maxmip_wide_rays_avx2(&rays, &mip, &mut out) }.unwrap();
+    ///     for (r, o) in rays.iter().zip(&out) {
+    ///         assert_eq!(*o, t.trace_maxmip_wide(r, &mip).unwrap());
+    ///     }
+    /// }
+    /// # }
+    /// ```
+    // Not under `cfg(doctest)`, as `trace_maxmip_packet_avx512` (rust-lang/rust#49864).
+    #[cfg_attr(not(doctest), target_feature(enable = "avx2"))]
+    pub fn trace_maxmip_wide_rays_avx2(
+        &self,
+        rays: &[Ray],
+        mip: &MaxMip<'_>,
+        out: &mut [Trace],
+    ) -> Result<(), Error> {
+        self.check_rays(rays, mip, out)?;
+        self.wide_rays(
+            rays,
+            mip,
+            out,
+            |lr, oct| Consts::new(lr, oct, mip),
+            |c, child, ix, iy| node(mip, c, child, ix, iy),
+        );
+        Ok(())
+    }
+}
+
+impl Consts {
+    /// The constants of clipped ray `lr` in octant `oct`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    fn new(lr: &LocalRay, oct: usize, mip: &MaxMip<'_>) -> Consts {
+        Consts {
             x: Axis::new(lr.o.x, lr.d.x, lr.inv[0], mip.nx),
             y: Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny),
             oz: _mm256_set1_pd(lr.o.z),
@@ -131,11 +196,7 @@ impl<T: Terrain> RayTracer<'_, T> {
             t0: _mm256_set1_pd(lr.t0),
             t1: _mm256_set1_pd(lr.t1),
             cross: &CROSSING[oct & 3],
-        };
-        self.wide_loop(ray, mip, &mut out, &lr, (root, oct), |child, ix, iy| {
-            node(mip, &c, child, ix, iy)
-        });
-        Ok(out)
+        }
     }
 }
 

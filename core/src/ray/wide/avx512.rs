@@ -146,9 +146,10 @@ impl<T: Terrain> RayTracer<'_, T> {
 
     #[target_feature(enable = "avx512f")]
     fn wide_walk(&self, ray: &Ray, mip: &MaxMip<'_>, out: &mut Trace) {
-        let Some((lr, root, oct)) = self.wide_start(ray, mip, out) else {
+        let Some(st) = self.wide_start(ray, mip, out) else {
             return;
         };
+        let (lr, oct) = (&st.0, st.2);
         let ln = &LANES[oct & 3];
         let axis = |c: &[[f64; 8]; 2], o: f64, d: f64, inv: f64, n: u32| Axis {
             c: [cast(c[0]), cast(c[1])],
@@ -168,8 +169,8 @@ impl<T: Terrain> RayTracer<'_, T> {
             t0: _mm512_set1_pd(lr.t0),
             t1: _mm512_set1_pd(lr.t1),
         };
-        self.wide_loop(ray, mip, out, &lr, (root, oct), |child, ix, iy| {
-            self.wide_node(mip, &c, child, ix, iy)
+        self.wide_loop(ray, mip, out, st, c, |c, child, ix, iy| {
+            self.wide_node(mip, c, child, ix, iy)
         });
     }
 
