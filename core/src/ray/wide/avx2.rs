@@ -221,7 +221,7 @@ fn node(mip: &MaxMip<'_>, c: &Consts, child: u32, ix: u32, iy: u32) -> u32 {
     // The ray's own interval first, as `max_f(max_f(t0, ax), ay)` in the neighbour walk.
     let (ax, ex) = (_mm256_max_pd(c.t0, ax), _mm256_min_pd(c.t1, ex));
     let (ly, ay, ey) = c.y.span(by, s);
-    let row = |r: usize, ly_r: __m256d, ay_r: __m256d, ey_r: __m256d| {
+    let row = |r: usize, (ly_r, ay_r, ey_r): (__m256d, __m256d, __m256d)| {
         let a = _mm256_max_pd(ax, ay_r);
         let b = _mm256_min_pd(ex, ey_r);
         // The ray's lowest point over the interval: `min(z(a), z(b))` of the neighbour walk,
@@ -238,32 +238,22 @@ fn node(mip: &MaxMip<'_>, c: &Consts, child: u32, ix: u32, iy: u32) -> u32 {
         );
         (_mm256_movemask_pd(e) as u32) << (4 * r)
     };
-    // Row `r`'s y values in every lane.
-    let m0 = row(
-        0,
-        _mm256_permute4x64_pd::<0x00>(ly),
-        _mm256_permute4x64_pd::<0x00>(ay),
-        _mm256_permute4x64_pd::<0x00>(ey),
-    );
-    let m1 = row(
-        1,
-        _mm256_permute4x64_pd::<0x55>(ly),
-        _mm256_permute4x64_pd::<0x55>(ay),
-        _mm256_permute4x64_pd::<0x55>(ey),
-    );
-    let m2 = row(
-        2,
-        _mm256_permute4x64_pd::<0xaa>(ly),
-        _mm256_permute4x64_pd::<0xaa>(ay),
-        _mm256_permute4x64_pd::<0xaa>(ey),
-    );
-    let m3 = row(
-        3,
-        _mm256_permute4x64_pd::<0xff>(ly),
-        _mm256_permute4x64_pd::<0xff>(ay),
-        _mm256_permute4x64_pd::<0xff>(ey),
-    );
-    let m = m0 | m1 | m2 | m3;
+    let m = row(0, row_lanes::<0x00>(ly, ay, ey))
+        | row(1, row_lanes::<0x55>(ly, ay, ey))
+        | row(2, row_lanes::<0xaa>(ly, ay, ey))
+        | row(3, row_lanes::<0xff>(ly, ay, ey));
     let cross = c.cross[0][(m & 0xff) as usize] | c.cross[1][(m >> 8 & 0xff) as usize];
     u32::from(cross)
+}
+
+/// Row `r`'s y values (`IMM` is `r` in each of the four two-bit fields: `0x00`, `0x55`, `0xaa`,
+/// `0xff`) in every lane: its liveness, entry and exit.
+#[target_feature(enable = "avx2")]
+#[inline]
+fn row_lanes<const IMM: i32>(ly: __m256d, ay: __m256d, ey: __m256d) -> (__m256d, __m256d, __m256d) {
+    (
+        _mm256_permute4x64_pd::<IMM>(ly),
+        _mm256_permute4x64_pd::<IMM>(ay),
+        _mm256_permute4x64_pd::<IMM>(ey),
+    )
 }
