@@ -44,6 +44,7 @@ use super::cell::{CellHit, LocalRay};
 use super::maxmip::{max_f, min_f, MaxMip};
 use super::{Hit, Ray, RayTracer, Trace};
 use crate::{Error, Terrain};
+use glam::DVec3;
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -116,6 +117,31 @@ static CROSSING: [[[u16; 256]; 2]; 4] = [
     crossing(false, true),
     crossing(true, true),
 ];
+
+/// The node size and the block corner of the sixteen children (on level `child`) of node
+/// `(ix, iy)` two levels up, in cells: `(s, bx, by)`. Integers below 2^53, exact in `f64`, as
+/// the neighbour walk's `ix * s` converted (`2^child` from its exponent, then products with a
+/// power of two, which are exact; an unsigned 64-bit conversion took a dozen instructions).
+#[inline(always)]
+fn block(child: u32, ix: u32, iy: u32) -> (f64, f64, f64) {
+    let s = f64::from_bits((1023 + u64::from(child & 63)) << 52);
+    (s, f64::from(ix) * 4.0 * s, f64::from(iy) * 4.0 * s)
+}
+
+/// The sixteen maxima of node `(ix, iy)`'s tile on level `child` (tile order), `-inf` past the
+/// storage (never, for a node of the grid).
+#[inline(always)]
+fn tile(mip: &MaxMip<'_>, child: u32, ix: u32, iy: u32) -> [f32; 16] {
+    let l = mip.level(child);
+    // Level offsets are whole tiles.
+    let t = (l.off >> 4) + (iy as usize) * l.tx as usize + ix as usize;
+    mip.data
+        .as_chunks::<16>()
+        .0
+        .get(t)
+        .copied()
+        .unwrap_or([f32::NEG_INFINITY; 16])
+}
 
 /// Per-ray constants of one horizontal axis (portable node).
 struct Axis {
@@ -219,15 +245,18 @@ struct WideWalk<C> {
     /// The ray's axes, for the cells' intervals.
     x: Axis,
     y: Axis,
-    /// The ray's octant ([`ORDER`]).
-    oct: usize,
+    /// The children's positions in crossing order: [`ORDER`] of the ray's octant.
+    order: &'static [[u32; 2]; 16],
+    /// The walk has a ray in progress (a finished walk's slot is restarted in place by
+    /// [`RayTracer::wide_rays`]).
+    live: bool,
     cur: Node,
     /// Nodes with children left below `cur`: at most one per level pair.
     stack: [Node; 17],
     sp: usize,
-    nodes: u64,
+    /// Children tested (cells and nodes).
     passes: u64,
-    /// The trace so far.
+    /// The trace so far; its `steps` are set when the walk ends ([`Self::trace`]).
     tr: Trace,
 }
 
@@ -253,17 +282,55 @@ impl<C> WideWalk<C> {
             y: Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny),
             lr,
             c,
-            oct,
+            order: &ORDER[oct & 3],
+            live: true,
             cur,
             stack: [cur; 17],
             sp: 0,
-            nodes: 1,
             passes: 0,
-            tr: Trace {
-                hit: None,
-                cells: 0,
-                steps: 1,
-            },
+            tr: Trace::default(),
+        }
+    }
+
+    /// [`Self::new`] in place, for the next ray of a slot: the stack's old entries are left,
+    /// since only entries below `sp` are read (the struct is about a kilobyte, and writing a
+    /// new one per ray cost about a tenth of the slice walk's instructions).
+    fn restart(
+        &mut self,
+        i: usize,
+        lr: LocalRay,
+        c: C,
+        mip: &MaxMip<'_>,
+        (root, oct, mask): (u32, usize, u32),
+    ) {
+        self.i = i;
+        self.x = Axis::new(lr.o.x, lr.d.x, lr.inv[0], mip.nx);
+        self.y = Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny);
+        self.lr = lr;
+        self.c = c;
+        self.order = &ORDER[oct & 3];
+        self.live = true;
+        self.cur = Node {
+            child: root - 2,
+            ix: 0,
+            iy: 0,
+            mask,
+        };
+        self.sp = 0;
+        self.passes = 0;
+        self.tr = Trace::default();
+    }
+
+    /// The trace of a walk that has ended: [`Trace::steps`] counts the nodes tested, the root
+    /// and every child tested that is not a cell.
+    fn trace(&self) -> Trace {
+        let nodes = self
+            .passes
+            .saturating_add(1)
+            .saturating_sub(u64::from(self.tr.cells));
+        Trace {
+            steps: u32::try_from(nodes).unwrap_or(u32::MAX),
+            ..self.tr
         }
     }
 }
@@ -392,11 +459,11 @@ impl<T: Terrain> RayTracer<'_, T> {
         let mut w = WideWalk::new(0, lr, c, mip, (root, oct, mask));
         // Bounded: `wide_step` ends the walk after `mip.bound` passes.
         for _ in 0..=mip.bound {
-            if self.wide_step(ray, mip, &mut w, &node) {
+            if self.wide_step(core::slice::from_ref(ray), mip, &mut w, &node) {
                 break;
             }
         }
-        *out = w.tr;
+        *out = w.trace();
     }
 
     /// [`Self::wide_loop`] for each ray of `rays` into `out` (at least as long; the caller
@@ -412,46 +479,59 @@ impl<T: Terrain> RayTracer<'_, T> {
         start: impl Fn(&LocalRay, usize) -> C,
         node: impl Fn(&C, u32, u32, u32) -> u32,
     ) {
-        let mut walks: [Option<WideWalk<C>>; WIDE_INTERLEAVED] = [const { None }; WIDE_INTERLEAVED];
+        // Idle walks (`live` false) until the first rays arrive: a ray that stays still at the
+        // origin, whose constants no pass reads.
+        let idle = LocalRay {
+            o: DVec3::ZERO,
+            d: DVec3::ZERO,
+            inv: [0.0; 2],
+            t0: 0.0,
+            t1: 0.0,
+        };
+        let mut walks: [WideWalk<C>; WIDE_INTERLEAVED] = core::array::from_fn(|_| {
+            let mut w = WideWalk::new(0, idle, start(&idle, 0), mip, (2, 0, 0));
+            w.live = false;
+            w
+        });
         let mut next = 0usize;
-        // Bounded: each round makes a pass of every walk or starts rays; a ray takes at most
-        // `mip.bound + 1` passes, so `rays * (mip.bound + 2) + 1` rounds cover every ray.
-        let rounds = (rays.len() as u64)
-            .saturating_mul(mip.bound.saturating_add(2))
-            .saturating_add(1);
-        for _ in 0..rounds {
-            for slot in walks.iter_mut() {
-                // Refill: rays that end at their start (a miss, a hit at the start) are written
-                // at once.
-                while slot.is_none() && next < rays.len() {
-                    let i = next;
-                    next += 1;
-                    let (Some(ray), Some(o)) = (rays.get(i), out.get_mut(i)) else {
-                        break;
-                    };
-                    *o = Trace::default();
-                    if let Some((lr, root, oct)) = self.wide_start(ray, mip, o) {
-                        let c = start(&lr, oct);
-                        let mask = node(&c, root - 2, 0, 0);
-                        *slot = Some(WideWalk::new(i, lr, c, mip, (root, oct, mask)));
-                    }
+        // A walk that ends takes the next ray that does not end at its start (a miss, or a hit
+        // at the start, written at once). At most `rays.len()` starts over the whole slice.
+        let mut refill = |w: &mut WideWalk<C>, out: &mut [Trace]| {
+            while !w.live && next < rays.len() {
+                let i = next;
+                next += 1;
+                let (Some(ray), Some(o)) = (rays.get(i), out.get_mut(i)) else {
+                    break;
+                };
+                *o = Trace::default();
+                if let Some((lr, root, oct)) = self.wide_start(ray, mip, o) {
+                    let c = start(&lr, oct);
+                    let mask = node(&c, root - 2, 0, 0);
+                    w.restart(i, lr, c, mip, (root, oct, mask));
                 }
             }
+        };
+        for w in walks.iter_mut() {
+            refill(w, out);
+        }
+        // Bounded: each round makes a pass of every live walk; a ray takes at most
+        // `mip.bound + 1` passes, so `rays * (mip.bound + 1) + 1` rounds cover every ray.
+        let rounds = (rays.len() as u64)
+            .saturating_mul(mip.bound.saturating_add(1))
+            .saturating_add(1);
+        for _ in 0..rounds {
             let mut busy = false;
-            for slot in walks.iter_mut() {
-                let Some(w) = slot else {
+            for w in walks.iter_mut() {
+                if !w.live {
                     continue;
-                };
+                }
                 busy = true;
-                let Some(ray) = rays.get(w.i) else {
-                    *slot = None;
-                    continue;
-                };
-                if self.wide_step(ray, mip, w, &node) {
+                if self.wide_step(rays, mip, w, &node) {
                     if let Some(o) = out.get_mut(w.i) {
-                        *o = w.tr;
+                        *o = w.trace();
                     }
-                    *slot = None;
+                    w.live = false;
+                    refill(w, out);
                 }
             }
             if !busy {
@@ -471,7 +551,7 @@ impl<T: Terrain> RayTracer<'_, T> {
     #[inline(always)]
     fn wide_step<C>(
         &self,
-        ray: &Ray,
+        rays: &[Ray],
         mip: &MaxMip<'_>,
         w: &mut WideWalk<C>,
         node: &impl Fn(&C, u32, u32, u32) -> u32,
@@ -479,7 +559,6 @@ impl<T: Terrain> RayTracer<'_, T> {
         if w.passes >= mip.bound {
             return true;
         }
-        w.passes += 1;
         if w.cur.mask == 0 {
             if w.sp == 0 {
                 return true;
@@ -490,9 +569,11 @@ impl<T: Terrain> RayTracer<'_, T> {
             };
             w.cur = n;
         }
+        // Every pass past this point tests one child: a cell or a node.
+        w.passes += 1;
         let j = (w.cur.mask.trailing_zeros() & 15) as usize;
         w.cur.mask &= w.cur.mask - 1;
-        let [kx, ky] = ORDER[w.oct & 3][j];
+        let [kx, ky] = w.order[j];
         let (gx, gy) = (4 * w.cur.ix + kx, 4 * w.cur.iy + ky);
         if w.cur.child == 0 {
             w.tr.cells += 1;
@@ -503,14 +584,12 @@ impl<T: Terrain> RayTracer<'_, T> {
             let ta = max_f(max_f(w.lr.t0, ax), ay);
             let tb = min_f(min_f(w.lr.t1, ex), ey);
             if let Some(h) = self.wide_cell(&w.lr, gx, gy, ta, tb) {
-                w.tr.hit = Some(self.wide_hit(ray, gx, gy, h));
+                w.tr.hit = rays.get(w.i).map(|ray| self.wide_hit(ray, gx, gy, h));
                 return true;
             }
             return false;
         }
         let mask = node(&w.c, w.cur.child - 2, gx, gy);
-        w.nodes += 1;
-        w.tr.steps = u32::try_from(w.nodes).unwrap_or(u32::MAX);
         if mask != 0 {
             if w.cur.mask != 0 {
                 if let Some(e) = w.stack.get_mut(w.sp) {
@@ -549,17 +628,8 @@ impl<T: Terrain> RayTracer<'_, T> {
 /// enter, in crossing order.
 #[inline(always)]
 fn wide_node(mip: &MaxMip<'_>, c: &Consts, child: u32, ix: u32, iy: u32) -> u32 {
-    let l = mip.level(child);
-    // Node sizes and block corners are integers below 2^53: exact in `f64`, as the neighbour
-    // walk's `ix * s` converted.
-    let s = (1u64 << (child & 63)) as f64;
-    let bx = ((4 * ix as u64) << (child & 63)) as f64;
-    let by = ((4 * iy as u64) << (child & 63)) as f64;
-    let idx = l.off + (((iy as usize) * l.tx as usize + ix as usize) << 4);
-    let mut tile = [f32::NEG_INFINITY; 16];
-    if let Some(src) = mip.data.get(idx..idx + 16) {
-        tile.copy_from_slice(src);
-    }
+    let (s, bx, by) = block(child, ix, iy);
+    let tile = tile(mip, child, ix, iy);
     // A child's x slab depends on its column only and its y slab on its row only: four of
     // each, the same values the sixteen lanes would compute one by one.
     let (mut lx, mut ax, mut ex) = ([false; 4], [0.0; 4], [0.0; 4]);
@@ -590,4 +660,60 @@ fn wide_node(mip: &MaxMip<'_>, c: &Consts, child: u32, ix: u32, iy: u32) -> u32 
     }
     let cross = c.cross[0][(m & 0xff) as usize] | c.cross[1][(m >> 8 & 0xff) as usize];
     u32::from(cross)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Heightfield, Surface};
+    use core::cell::Cell;
+    use glam::Vec3;
+    use std::vec;
+
+    /// A trace's `steps` are the node tests the walk made, the root's included: counted here by
+    /// wrapping the node test, against the count the walk derives from its passes and cells
+    /// (`WideWalk::trace`). The slice forms' traces equal these (`tests/tests/rays_packet.rs`).
+    #[test]
+    fn steps_count_the_node_tests() {
+        let (w, h) = (83u32, 61u32);
+        let s: std::vec::Vec<f32> = (0..w * h)
+            .map(|i| ((i * 37) % 29) as f32 * 0.4 + ((i / w) as f32 * 0.2).sin() * 5.0)
+            .collect();
+        let hf = Heightfield::new(&s, w, h).unwrap();
+        let mut buf = vec![0.0; MaxMip::len(w, h).unwrap()];
+        let mip = MaxMip::build(&hf, &mut buf).unwrap();
+        let t = RayTracer::new(&hf, Surface::Triangles);
+        let (mut rays, mut hits, mut misses) = (0, 0, 0);
+        for k in 0..400u32 {
+            let a = k as f32 * 0.37;
+            let origin = Vec3::new(
+                -5.0 + (k % 7) as f32 * 13.0,
+                -3.0 + (k % 5) as f32 * 11.0,
+                12.0,
+            );
+            let dir = Vec3::new(a.cos(), a.sin(), -0.05 - (k % 9) as f32 * 0.04);
+            let ray = Ray::new(origin, dir).unwrap();
+            let mut out = Trace::default();
+            let Some(st) = t.wide_start(&ray, &mip, &mut out) else {
+                continue;
+            };
+            let c = Consts::new(&st.0, st.2, &mip);
+            let calls = Cell::new(0u32);
+            t.wide_loop(&ray, &mip, &mut out, st, c, |c, child, ix, iy| {
+                calls.set(calls.get() + 1);
+                wide_node(&mip, c, child, ix, iy)
+            });
+            assert_eq!(out.steps, calls.get(), "{ray:?}");
+            rays += 1;
+            if out.hit.is_some() {
+                hits += 1;
+            } else {
+                misses += 1;
+            }
+        }
+        assert!(
+            rays > 200 && hits > 50 && misses > 20,
+            "{rays} {hits} {misses}"
+        );
+    }
 }

@@ -5,7 +5,7 @@
 //! by the portable node's table. The operations are those of the portable node (and of the
 //! neighbour walk's step) in the same order, so the traces are the same.
 
-use super::CROSSING;
+use super::{block, tile, CROSSING};
 use crate::ray::cell::LocalRay;
 use crate::ray::maxmip::MaxMip;
 use crate::ray::{Ray, RayTracer, Trace};
@@ -19,8 +19,10 @@ struct Axis {
     o: __m256d,
     inv: __m256d,
     n: __m256d,
-    /// Direction component positive, or zero.
-    pos: bool,
+    /// All lanes set when the direction component is positive: the slab's entry is then its
+    /// low side.
+    pos: __m256d,
+    /// The direction component is zero.
     zero: bool,
 }
 
@@ -32,17 +34,17 @@ impl Axis {
             o: _mm256_set1_pd(o),
             inv: _mm256_set1_pd(inv),
             n: _mm256_set1_pd(f64::from(n)),
-            pos: d > 0.0,
+            pos: _mm256_castsi256_pd(_mm256_set1_epi64x(-i64::from(d > 0.0))),
             zero: d == 0.0,
         }
     }
 
     /// The portable `Axis::span` for the four children at positions `0, 1, 2, 3` (lanes) of a
-    /// block starting at `base` with nodes of size `s`: lanes whose node lies inside the grid
-    /// (and holds the ray, for a zero component), and the slab parameters.
+    /// block starting at `base` with nodes of size `s`: the bits of the positions whose node
+    /// lies inside the grid (and holds the ray, for a zero component), and the slab parameters.
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn span(&self, base: __m256d, s: __m256d) -> (__m256d, __m256d, __m256d) {
+    fn span(&self, base: __m256d, s: __m256d) -> (u32, __m256d, __m256d) {
         let lo = _mm256_add_pd(base, _mm256_mul_pd(_mm256_set_pd(3.0, 2.0, 1.0, 0.0), s));
         let hi = _mm256_min_pd(_mm256_add_pd(lo, s), self.n);
         // The tile's padding past the grid is never read as a node.
@@ -58,18 +60,18 @@ impl Axis {
             );
             let on = _mm256_and_pd(_mm256_cmp_pd::<_CMP_LE_OQ>(lo, o), inside);
             return (
-                _mm256_and_pd(live, on),
+                _mm256_movemask_pd(_mm256_and_pd(live, on)) as u32,
                 _mm256_set1_pd(f64::NEG_INFINITY),
                 _mm256_set1_pd(f64::INFINITY),
             );
         }
         let a = _mm256_mul_pd(_mm256_sub_pd(lo, self.o), self.inv);
         let b = _mm256_mul_pd(_mm256_sub_pd(hi, self.o), self.inv);
-        if self.pos {
-            (live, a, b)
-        } else {
-            (live, b, a)
-        }
+        (
+            _mm256_movemask_pd(live) as u32,
+            _mm256_blendv_pd(b, a, self.pos),
+            _mm256_blendv_pd(a, b, self.pos),
+        )
     }
 }
 
@@ -79,8 +81,8 @@ struct Consts {
     y: Axis,
     oz: __m256d,
     dz: __m256d,
-    /// The ray descends (`dz < 0`).
-    down: bool,
+    /// All lanes set when the ray descends (`dz < 0`), so that `zmin` takes `b`.
+    down: __m256d,
     t0: __m256d,
     t1: __m256d,
     /// [`CROSSING`] of the ray's octant.
@@ -192,7 +194,7 @@ impl Consts {
             y: Axis::new(lr.o.y, lr.d.y, lr.inv[1], mip.ny),
             oz: _mm256_set1_pd(lr.o.z),
             dz: _mm256_set1_pd(lr.d.z),
-            down: lr.d.z < 0.0,
+            down: _mm256_castsi256_pd(_mm256_set1_epi64x(-i64::from(lr.d.z < 0.0))),
             t0: _mm256_set1_pd(lr.t0),
             t1: _mm256_set1_pd(lr.t1),
             cross: &CROSSING[oct & 3],
@@ -205,55 +207,63 @@ impl Consts {
 #[target_feature(enable = "avx2")]
 #[inline]
 fn node(mip: &MaxMip<'_>, c: &Consts, child: u32, ix: u32, iy: u32) -> u32 {
-    let l = mip.level(child);
-    // Node sizes and block corners are integers below 2^53: exact in `f64`, as the neighbour
-    // walk's `ix * s` converted.
-    let s = _mm256_set1_pd((1u64 << (child & 63)) as f64);
-    let bx = _mm256_set1_pd(((4 * ix as u64) << (child & 63)) as f64);
-    let by = _mm256_set1_pd(((4 * iy as u64) << (child & 63)) as f64);
-    let idx = l.off + (((iy as usize) * l.tx as usize + ix as usize) << 4);
-    let mut tile = [f32::NEG_INFINITY; 16];
-    if let Some(src) = mip.data.get(idx..idx + 16) {
-        tile.copy_from_slice(src);
-    }
-    let rows: [__m128; 4] = cast(tile);
+    let (s, bx, by) = block(child, ix, iy);
+    let (s, bx, by) = (_mm256_set1_pd(s), _mm256_set1_pd(bx), _mm256_set1_pd(by));
+    let rows: [__m128; 4] = cast(tile(mip, child, ix, iy));
     let (lx, ax, ex) = c.x.span(bx, s);
     // The ray's own interval first, as `max_f(max_f(t0, ax), ay)` in the neighbour walk.
     let (ax, ex) = (_mm256_max_pd(c.t0, ax), _mm256_min_pd(c.t1, ex));
     let (ly, ay, ey) = c.y.span(by, s);
-    let row = |r: usize, (ly_r, ay_r, ey_r): (__m256d, __m256d, __m256d)| {
+    let row = |r: usize, (ay_r, ey_r): (__m256d, __m256d)| {
         let a = _mm256_max_pd(ax, ay_r);
         let b = _mm256_min_pd(ex, ey_r);
         // The ray's lowest point over the interval: `min(z(a), z(b))` of the neighbour walk,
         // `z(b)` for a descending ray and `z(a)` otherwise.
-        let zmin = _mm256_add_pd(c.oz, _mm256_mul_pd(if c.down { b } else { a }, c.dz));
+        let zmin = _mm256_add_pd(c.oz, _mm256_mul_pd(_mm256_blendv_pd(a, b, c.down), c.dz));
         let m = _mm256_cvtps_pd(rows[r & 3]);
         // `<`: a child the ray only touches is not entered (see `ray/wide.rs`).
         let e = _mm256_and_pd(
-            _mm256_and_pd(lx, ly_r),
-            _mm256_and_pd(
-                _mm256_cmp_pd::<_CMP_LT_OQ>(a, b),
-                _mm256_cmp_pd::<_CMP_LE_OQ>(zmin, m),
-            ),
+            _mm256_cmp_pd::<_CMP_LT_OQ>(a, b),
+            _mm256_cmp_pd::<_CMP_LE_OQ>(zmin, m),
         );
         (_mm256_movemask_pd(e) as u32) << (4 * r)
     };
-    let m = row(0, row_lanes::<0x00>(ly, ay, ey))
-        | row(1, row_lanes::<0x55>(ly, ay, ey))
-        | row(2, row_lanes::<0xaa>(ly, ay, ey))
-        | row(3, row_lanes::<0xff>(ly, ay, ey));
+    // Live children: a live column in a live row (the columns' bits repeated in every row,
+    // the rows' spread to four bits each).
+    let live = (lx * 0x1111) & u32::from(ROWS[(ly & 15) as usize]);
+    let m = live
+        & (row(0, row_lanes::<0x00>(ay, ey))
+            | row(1, row_lanes::<0x55>(ay, ey))
+            | row(2, row_lanes::<0xaa>(ay, ey))
+            | row(3, row_lanes::<0xff>(ay, ey)));
     let cross = c.cross[0][(m & 0xff) as usize] | c.cross[1][(m >> 8 & 0xff) as usize];
     u32::from(cross)
 }
 
 /// Row `r`'s y values (`IMM` is `r` in each of the four two-bit fields: `0x00`, `0x55`, `0xaa`,
-/// `0xff`) in every lane: its liveness, entry and exit.
+/// `0xff`) in every lane: its entry and exit.
 #[target_feature(enable = "avx2")]
 #[inline]
-fn row_lanes<const IMM: i32>(ly: __m256d, ay: __m256d, ey: __m256d) -> (__m256d, __m256d, __m256d) {
+fn row_lanes<const IMM: i32>(ay: __m256d, ey: __m256d) -> (__m256d, __m256d) {
     (
-        _mm256_permute4x64_pd::<IMM>(ly),
         _mm256_permute4x64_pd::<IMM>(ay),
         _mm256_permute4x64_pd::<IMM>(ey),
     )
 }
+
+/// A four-bit row mask spread to the tile's bit order: bit `r` to bits `4r .. 4r + 4`.
+const ROWS: [u16; 16] = {
+    let mut t = [0u16; 16];
+    let mut v = 0;
+    while v < 16 {
+        let mut r = 0;
+        while r < 4 {
+            if v >> r & 1 != 0 {
+                t[v] |= 0xf << (4 * r);
+            }
+            r += 1;
+        }
+        v += 1;
+    }
+    t
+};

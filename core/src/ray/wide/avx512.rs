@@ -2,7 +2,7 @@
 //! two registers of eight `f64` lanes, in crossing order, with the operations of the portable
 //! node (and of the neighbour walk's step) in the same order.
 
-use super::ORDER;
+use super::{block, tile, ORDER};
 use crate::ray::maxmip::MaxMip;
 use crate::ray::{Ray, RayTracer, Trace};
 use crate::{Error, Terrain};
@@ -179,21 +179,9 @@ impl<T: Terrain> RayTracer<'_, T> {
     #[target_feature(enable = "avx512f")]
     #[inline]
     fn wide_node(&self, mip: &MaxMip<'_>, c: &Consts, child: u32, ix: u32, iy: u32) -> u32 {
-        let l = mip.level(child);
-        // Node sizes and block corners are integers below 2^53: exact in `f64`, as the
-        // neighbour walk's `ix * s` converted.
-        let s = (1u64 << (child & 63)) as f64;
-        let sv = _mm512_set1_pd(s);
-        let (bx, by) = (
-            _mm512_set1_pd(((4 * ix as u64) << (child & 63)) as f64),
-            _mm512_set1_pd(((4 * iy as u64) << (child & 63)) as f64),
-        );
-        let idx = l.off + (((iy as usize) * l.tx as usize + ix as usize) << 4);
-        let mut tile = [f32::NEG_INFINITY; 16];
-        if let Some(src) = mip.data.get(idx..idx + 16) {
-            tile.copy_from_slice(src);
-        }
-        let m = _mm512_permutexvar_ps(c.perm, cast(tile));
+        let (s, bx, by) = block(child, ix, iy);
+        let (sv, bx, by) = (_mm512_set1_pd(s), _mm512_set1_pd(bx), _mm512_set1_pd(by));
+        let m = _mm512_permutexvar_ps(c.perm, cast(tile(mip, child, ix, iy)));
         let mx: [__m512d; 2] = [
             _mm512_cvtps_pd(_mm512_castps512_ps256(m)),
             _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd::<1>(
