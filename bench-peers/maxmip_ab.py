@@ -12,10 +12,15 @@ limits the DEMs; VIEWS="camera grazing low" picks the views (default camera and 
 `low` is embree_trace.py's level view from just above the ground); SURFACE=bilinear (plane, nearest) traces another surface; SHOW=1 prints each
 view's `relief trace` command (for profiling one view by hand); the DEMs' raw files are kept
 in the temporary folder it names. List a binary twice, alternated, to see the machine's drift.
+IR=1 counts instructions instead of timing (valgrind's cachegrind, `--chunk-reps 1`, so each
+view traces its rays twice): the instructions executed in the tracing code (functions under
+`relief_core::ray`, less the pyramid's build and the tracer's height scan), which, unlike the
+time, do not move with the machine's load.
 """
 import hashlib
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -37,16 +42,40 @@ DEMS = [
 ]
 
 
+def ray_instructions(cmd, tmp):
+    """Instructions executed in `relief_core::ray` functions by `cmd`, under cachegrind."""
+    cg = os.path.join(tmp, "cachegrind.out")
+    cmd = ["valgrind", "--tool=cachegrind", "--cache-sim=no", f"--cachegrind-out-file={cg}"] + cmd
+    subprocess.run(cmd, check=True, capture_output=True)
+    rows = subprocess.run(
+        ["cg_annotate", "--show=Ir", "--show-percs=no", "--auto=no", "--threshold=0", cg],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout.splitlines()
+    total = 0
+    for row in rows:
+        m = re.match(r"\s*([0-9,]+)\s+\S*?:(.*)$", row)
+        # The tracing code: `relief_core::ray`, less the pyramid's build and the tracer's
+        # height scan, which come before the timed tracing.
+        f = m.group(2) if m else ""
+        if "relief_core::ray" in f and "MaxMip::build" not in f and "RayTracer<T>::new" not in f:
+            total += int(m.group(1).replace(",", ""))
+    return total
+
+
 def main():
     bins = sys.argv[1:]
     if not bins:
         sys.exit(__doc__)
     packet = os.environ.get("PACKET", "0") == "1"
+    ir = os.environ.get("IR", "0") == "1"
     wide = os.environ.get("WIDE", "0") == "1"
     only = os.environ.get("ONLY", "").split()
     tmp = tempfile.mkdtemp()
     out = os.path.join(tmp, "depth.f32")
-    print("| DEM | view | " + " | ".join(f"{os.path.basename(b)}: steps, M rays/s" for b in bins) + " | images |")
+    what = "M instructions" if os.environ.get("IR", "0") == "1" else "steps, M rays/s"
+    print("| DEM | view | " + " | ".join(f"{os.path.basename(b)}: {what}" for b in bins) + " | images |")
     print("|---|---|" + "---|" * len(bins) + "---|")
     for name, path, fm, dx, dy, zmul in DEMS:
         if only and name not in only:
@@ -73,14 +102,18 @@ def main():
                     "--height", str(gh), "--dx", dx, "--dy", dy, "--eye", fmt(eye),
                     "--target", fmt(target), "--fov", str(fov), "--size", "384x256",
                     "--method", "maxmip", "--surface", os.environ.get("SURFACE", "triangles"), "--threads", "1",
-                    "--out", out, "--json", "--chunk-rays", "4096", "--chunk-reps", "9",
+                    "--out", out, "--json", "--chunk-rays", "4096", "--chunk-reps", "1" if ir else "9",
                 ] + ([] if packet else ["--no-packet"]) + (["--wide"] if wide else [])
                 if os.environ.get("SHOW") == "1":
                     print("    " + " ".join(cmd), flush=True)
-                rj = json.loads(subprocess.run(cmd, check=True, capture_output=True).stdout)
+                if ir:
+                    n = ray_instructions(cmd, tmp)
+                    cells.append(f"{n / 1e6:.1f}")
+                else:
+                    rj = json.loads(subprocess.run(cmd, check=True, capture_output=True).stdout)
+                    cells.append(f"{rj['steps']}, {rj['rays_per_s_chunked'] / 1e6:.2f}")
                 with open(out, "rb") as f:
                     images.add(hashlib.md5(f.read()).hexdigest())
-                cells.append(f"{rj['steps']}, {rj['rays_per_s_chunked'] / 1e6:.2f}")
             same = "same" if len(images) == 1 else "DIFFER"
             print(f"| {name} | {vn} | " + " | ".join(cells) + f" | {same} |", flush=True)
 

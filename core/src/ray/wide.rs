@@ -494,25 +494,8 @@ impl<T: Terrain> RayTracer<'_, T> {
             w
         });
         let mut next = 0usize;
-        // A walk that ends takes the next ray that does not end at its start (a miss, or a hit
-        // at the start, written at once). At most `rays.len()` starts over the whole slice.
-        let mut refill = |w: &mut WideWalk<C>, out: &mut [Trace]| {
-            while !w.live && next < rays.len() {
-                let i = next;
-                next += 1;
-                let (Some(ray), Some(o)) = (rays.get(i), out.get_mut(i)) else {
-                    break;
-                };
-                *o = Trace::default();
-                if let Some((lr, root, oct)) = self.wide_start(ray, mip, o) {
-                    let c = start(&lr, oct);
-                    let mask = node(&c, root - 2, 0, 0);
-                    w.restart(i, lr, c, mip, (root, oct, mask));
-                }
-            }
-        };
         for w in walks.iter_mut() {
-            refill(w, out);
+            self.wide_refill(w, &mut next, rays, mip, out, (&start, &node));
         }
         // Bounded: each round makes a pass of every live walk; a ray takes at most
         // `mip.bound + 1` passes, so `rays * (mip.bound + 1) + 1` rounds cover every ray.
@@ -531,11 +514,44 @@ impl<T: Terrain> RayTracer<'_, T> {
                         *o = w.trace();
                     }
                     w.live = false;
-                    refill(w, out);
+                    self.wide_refill(w, &mut next, rays, mip, out, (&start, &node));
                 }
             }
             if !busy {
                 break;
+            }
+        }
+    }
+
+    /// A walk of [`Self::wide_rays`] that has ended takes the next ray from `next` on that does
+    /// not end at its start (a miss, or a hit at the start, written at once); it stays idle
+    /// when none is left. At most `rays.len()` starts over a slice. A method rather than a
+    /// closure, so that it is inlined with the caller's target features (a closure is compiled
+    /// with those of the function that defines it).
+    #[inline(always)]
+    fn wide_refill<C>(
+        &self,
+        w: &mut WideWalk<C>,
+        next: &mut usize,
+        rays: &[Ray],
+        mip: &MaxMip<'_>,
+        out: &mut [Trace],
+        (start, node): (
+            &impl Fn(&LocalRay, usize) -> C,
+            &impl Fn(&C, u32, u32, u32) -> u32,
+        ),
+    ) {
+        while !w.live && *next < rays.len() {
+            let i = *next;
+            *next += 1;
+            let (Some(ray), Some(o)) = (rays.get(i), out.get_mut(i)) else {
+                break;
+            };
+            *o = Trace::default();
+            if let Some((lr, root, oct)) = self.wide_start(ray, mip, o) {
+                let c = start(&lr, oct);
+                let mask = node(&c, root - 2, 0, 0);
+                w.restart(i, lr, c, mip, (root, oct, mask));
             }
         }
     }
