@@ -36,9 +36,10 @@
 //! ([`RayTracer::trace_maxmip_wide_rays`], `trace_maxmip_wide_rays_avx2`) keep two rays' walks
 //! in flight and make a pass of each in turn: a pass is one long dependent chain (the tile's
 //! load, the slabs, the compares, the mask, the next child), and two independent chains
-//! overlap. Measured on the bundled DEM (BENCHMARKS.md, "The sixteen-wide walk in AVX2"): AVX2
-//! 1.2-1.3x the neighbour walk ray by ray and two interleaved 1.1-1.2x that again, the portable
-//! form 0.8-0.9x the neighbour walk (the compiler does not vectorise it well).
+//! overlap. Measured on the bundled DEM (BENCHMARKS.md, "The sixteen-wide walk in AVX2" and
+//! "The sixteen-wide walk with fewer instructions"): AVX2 1.15-1.4x the neighbour walk ray by
+//! ray, two interleaved 1.4-1.7x, the portable form 0.8-0.9x the neighbour walk (the compiler
+//! does not vectorise it well).
 
 use super::cell::{CellHit, LocalRay};
 use super::maxmip::{max_f, min_f, MaxMip};
