@@ -201,19 +201,40 @@ impl Wide {
     }
 }
 
-/// The max-mip path taken without --no-packet, as `(packet, wide)`: AVX-512 packets
-/// (`avx512`) where the CPU has AVX-512F and DQ; else, where it has AVX2, the rows handed as
-/// slices to the sixteen-wide walk in AVX2, which interleaves two rays' walks (`wide-avx2`;
-/// 1.2-1.3x the neighbour walk ray by ray, and 1.17x that again, BENCHMARKS.md "The
-/// sixteen-wide walk in AVX2"); else the portable packets (`portable`: the neighbour walk, ray
-/// by ray).
-fn default_mip_path() -> (&'static str, Option<Wide>) {
+/// The path that traces a slice of max-mip rays without --no-packet.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Packet {
+    /// AVX-512 packets (`trace_maxmip_packet_avx512`), where the CPU has AVX-512F and DQ.
+    Avx512,
+    /// The sixteen-wide walk in AVX2 over the slice, two rays' walks interleaved
+    /// (`trace_maxmip_wide_rays_avx2`), where the CPU has AVX2.
+    WideAvx2,
+    /// The portable packets (`trace_maxmip_packet`: the neighbour walk, ray by ray).
+    Portable,
+}
+
+impl Packet {
+    /// Its name in the JSON `packet` field (`off` for none).
+    fn name(self) -> &'static str {
+        match self {
+            Packet::Avx512 => "avx512",
+            Packet::WideAvx2 => "wide-avx2",
+            Packet::Portable => "portable",
+        }
+    }
+}
+
+/// The max-mip path taken without --no-packet, as `(packet, wide)`: AVX-512 packets where the
+/// CPU has AVX-512F and DQ; else, where it has AVX2, the rows handed as slices to the
+/// sixteen-wide walk in AVX2, which interleaves two rays' walks (1.4-1.7x the neighbour walk,
+/// BENCHMARKS.md "The sixteen-wide walk with fewer instructions"); else the portable packets.
+fn default_mip_path() -> (Packet, Option<Wide>) {
     if has_avx512() {
-        ("avx512", None)
+        (Packet::Avx512, None)
     } else if Wide::detect() == Wide::Avx2 {
-        ("wide-avx2", Some(Wide::Avx2))
+        (Packet::WideAvx2, Some(Wide::Avx2))
     } else {
-        ("portable", None)
+        (Packet::Portable, None)
     }
 }
 
@@ -237,25 +258,24 @@ fn trace_one(
     }
 }
 
-/// Max-mip tracing of a slice of rays by the path `packet` names ([`default_mip_path`]; the
-/// same results for every path).
+/// Max-mip tracing of a slice of rays by path `packet` ([`default_mip_path`]; the same results
+/// for every path).
 fn trace_packet(
     tracer: &RayTracer<'_, Heightfield<'_, f32>>,
     rays: &[Ray],
     mip: &MaxMip<'_>,
     out: &mut [Trace],
-    packet: &str,
+    packet: Packet,
 ) -> Result<(), relief_core::Error> {
-    #[cfg(target_arch = "x86_64")]
     match packet {
-        // SAFETY: `default_mip_path` names `avx512` only where the CPU has AVX-512F and DQ.
-        "avx512" => return unsafe { tracer.trace_maxmip_packet_avx512(rays, mip, out) },
-        // SAFETY: `default_mip_path` names `wide-avx2` only where the CPU has AVX2.
-        "wide-avx2" => return unsafe { tracer.trace_maxmip_wide_rays_avx2(rays, mip, out) },
-        _ => {}
+        // SAFETY: `default_mip_path` picks `Avx512` only where the CPU has AVX-512F and DQ.
+        #[cfg(target_arch = "x86_64")]
+        Packet::Avx512 => unsafe { tracer.trace_maxmip_packet_avx512(rays, mip, out) },
+        // SAFETY: `default_mip_path` picks `WideAvx2` only where the CPU has AVX2.
+        #[cfg(target_arch = "x86_64")]
+        Packet::WideAvx2 => unsafe { tracer.trace_maxmip_wide_rays_avx2(rays, mip, out) },
+        _ => tracer.trace_maxmip_packet(rays, mip, out),
     }
-    let _ = packet;
-    tracer.trace_maxmip_packet(rays, mip, out)
 }
 
 /// Runs `relief trace`.
@@ -322,9 +342,12 @@ pub fn run(a: &TraceArgs) -> CliResult {
 
     let mut depth = vec![f32::INFINITY; w as usize * h as usize];
     let (packet, wide) = match (a.method, a.no_packet) {
-        (Method::Maxmip, false) => default_mip_path(),
-        (Method::Maxmip, true) => ("off", a.wide.then(Wide::detect)),
-        _ => ("off", None),
+        (Method::Maxmip, false) => {
+            let (p, w) = default_mip_path();
+            (Some(p), w)
+        }
+        (Method::Maxmip, true) => (None, a.wide.then(Wide::detect)),
+        _ => (None, None),
     };
     // Camera rays, made before the clock starts so that `trace_ms` counts tracing only (as the
     // Embree comparison, which times `scene.run` on rays it already has); for images over
@@ -361,7 +384,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
                 .collect::<Result<_, _>>()?;
             &own
         };
-        if let (Accel::Mip(mip), true) = (&accel, packet != "off") {
+        if let (Accel::Mip(mip), Some(packet)) = (&accel, packet) {
             let mut traces = vec![Trace::default(); rays.len()];
             trace_packet(&tracer, rays, mip, &mut traces, packet).map_err(|e| e.to_string())?;
             for (px, tr) in row.iter_mut().zip(&traces) {
@@ -395,23 +418,23 @@ pub fn run(a: &TraceArgs) -> CliResult {
     };
     // One slice of rays with the selected method, for --chunk-rays.
     let trace_slice = |rays: &[Ray], out: &mut [Trace]| -> Result<(), String> {
-        match (&accel, a.method) {
-            (Accel::Mip(mip), _) if packet != "off" => {
-                trace_packet(&tracer, rays, mip, out, packet).map_err(|e| e.to_string())
+        match (&accel, a.method, packet) {
+            (Accel::Mip(mip), _, Some(p)) => {
+                trace_packet(&tracer, rays, mip, out, p).map_err(|e| e.to_string())
             }
-            (Accel::Mip(mip), _) => {
+            (Accel::Mip(mip), _, None) => {
                 for (r, o) in rays.iter().zip(out.iter_mut()) {
                     *o = trace_one(&tracer, r, mip, wide).map_err(|e| e.to_string())?;
                 }
                 Ok(())
             }
-            (Accel::Run(acc), _) => {
+            (Accel::Run(acc), _, _) => {
                 for (r, o) in rays.iter().zip(out.iter_mut()) {
                     *o = tracer.trace_run_dda(r, acc).map_err(|e| e.to_string())?;
                 }
                 Ok(())
             }
-            (Accel::None, Method::March) => {
+            (Accel::None, Method::March, _) => {
                 for (r, o) in rays.iter().zip(out.iter_mut()) {
                     *o = tracer
                         .trace_march(r, &opts)
@@ -420,7 +443,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
                 }
                 Ok(())
             }
-            (Accel::None, _) => {
+            (Accel::None, _, _) => {
                 for (r, o) in rays.iter().zip(out.iter_mut()) {
                     *o = tracer.trace_cell_dda(r);
                 }
@@ -515,7 +538,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
             "rays_per_s": rays_per_s,
             "cells_visited": stats.cells,
             "steps": stats.steps,
-            "packet": packet,
+            "packet": packet.map_or("off", Packet::name),
             "walk": match (a.method, wide) {
                 (Method::Maxmip, Some(k)) => format!("wide-{}", k.name()),
                 (Method::Maxmip, None) => "neighbour".into(),
