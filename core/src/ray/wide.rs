@@ -295,7 +295,7 @@ impl<C> WideWalk<C> {
 
     /// [`Self::new`] in place, for the next ray of a slot: the stack's old entries are left,
     /// since only entries below `sp` are read (the struct is about a kilobyte, and writing a
-    /// new one per ray cost about a tenth of the slice walk's instructions).
+    /// new one per ray cost about a twentieth of the slice walk's instructions).
     fn restart(
         &mut self,
         i: usize,
