@@ -678,8 +678,12 @@ fn mip_table() {
         };
         let mut ow = vec![Trace::default(); rays.len()];
         wide_rays(&rays, &mut ow);
+        // The portable form's hits and cells (the AVX2 form's conservative `f32` node test
+        // may take more steps).
         for (r, w) in rays.iter().zip(&ow) {
-            assert_eq!(*w, tracer.trace_maxmip_wide(r, &mip).unwrap());
+            let p = tracer.trace_maxmip_wide(r, &mip).unwrap();
+            assert_eq!((w.hit, w.cells), (p.hit, p.cells));
+            assert!(w.steps >= p.steps);
         }
         let by_rays = |rs: &[Ray], os: &mut [Trace]| {
             wide_rays(rs, os);

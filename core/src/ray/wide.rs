@@ -15,24 +15,31 @@
 //! entered. The neighbour walk tests two kinds of those: the cell under a start that lies on a
 //! cell boundary (whose one-point test `start_hit` has already made before either walk begins)
 //! and a cell entered exactly at the ray's clipped end. So the cells tested are the same or
-//! fewer, and the hits are those of [`RayTracer::trace_maxmip`] (bit for bit on every ray of
-//! the tests and the `rays` fuzz target). The walk takes a node's children in the order the ray
+//! fewer, and the hits are those of [`RayTracer::trace_maxmip`] (bit for bit on the rays of
+//! the packet tests and the `rays` fuzz target; rays aimed exactly at a sample's top on the
+//! domain's edge may touch it by a rounding unit in one walk and not the other, or hit the
+//! other cell at that corner: `HARD_CASES.md`). The walk takes a node's children in the order the ray
 //! crosses them (a ray's path through a 4 x 4 block is a monotone staircase, one child per
 //! anti-diagonal counted from the corner it enters by), so the next child is the lowest set bit
 //! of the node's mask in that order; a node with children left waits on a stack of at most one
 //! node per level pair, and the first cell hit ends the ray.
 //!
 //! Three forms of the node test share the walk ([`RayTracer::wide_loop`]), each giving the
-//! same traces:
+//! same hits and testing the same cells:
 //! - the portable one here ([`RayTracer::trace_maxmip_wide`]), plain `f64` arithmetic in the
 //!   tile's own order (lane `row * 4 + column`): a child's x slab depends on its column only and
 //!   its y slab on its row only, so four of each are computed and combined sixteen times; the
 //!   mask goes into crossing order by a table;
-//! - AVX2 (`wide/avx2.rs`), the same in registers of four lanes, a row of the block per
-//!   register;
-//! - AVX-512 (`wide/avx512.rs`), two registers of eight lanes in crossing order.
+//! - AVX2 (`wide/avx2.rs`), in `f32` with margins, eight lanes a register: a conservative test
+//!   that enters every child the exact one enters and possibly a few more (so its
+//!   [`Trace::steps`] may be larger); rays outside its range take the same operations as the
+//!   portable node in registers of four `f64` lanes;
+//! - AVX-512 (`wide/avx512.rs`), the portable node's operations in two registers of eight
+//!   lanes in crossing order (the portable form's traces, steps included).
 //!
-//! A cell's interval is computed again, in scalar, when it is tested. The slice forms
+//! A cell's interval is computed again, in scalar, when it is tested, and so is its lane's
+//! test: a cell that a conservative node test entered and the exact test would not is
+//! skipped, not tested. The slice forms
 //! ([`RayTracer::trace_maxmip_wide_rays`], `trace_maxmip_wide_rays_avx2`) keep two rays' walks
 //! in flight and make a pass of each in turn: a pass is one long dependent chain (the tile's
 //! load, the slabs, the compares, the mask, the next child), and two independent chains
@@ -236,6 +243,15 @@ struct Node {
 /// two (BENCHMARKS.md, "The sixteen-wide walk in AVX2").
 const WIDE_INTERLEAVED: usize = 2;
 
+/// The ray of an idle walk: still, at the origin, with an empty interval.
+const IDLE: LocalRay = LocalRay {
+    o: DVec3::ZERO,
+    d: DVec3::ZERO,
+    inv: [0.0; 2],
+    t0: 0.0,
+    t1: 0.0,
+};
+
 /// One ray's sixteen-wide walk in progress.
 struct WideWalk<C> {
     /// The ray's index in its slice ([`RayTracer::wide_rays`]).
@@ -255,8 +271,10 @@ struct WideWalk<C> {
     /// Nodes with children left below `cur`: at most one per level pair.
     stack: [Node; 17],
     sp: usize,
-    /// Children tested (cells and nodes).
+    /// Children taken (cells and nodes).
     passes: u64,
+    /// Cells taken but skipped by the exact test (after a conservative node test).
+    skipped: u64,
     /// The trace so far; its `steps` are set when the walk ends ([`Self::trace`]).
     tr: Trace,
 }
@@ -289,6 +307,7 @@ impl<C> WideWalk<C> {
             stack: [cur; 17],
             sp: 0,
             passes: 0,
+            skipped: 0,
             tr: Trace::default(),
         }
     }
@@ -319,16 +338,18 @@ impl<C> WideWalk<C> {
         };
         self.sp = 0;
         self.passes = 0;
+        self.skipped = 0;
         self.tr = Trace::default();
     }
 
     /// The trace of a walk that has ended: [`Trace::steps`] counts the nodes tested, the root
-    /// and every child tested that is not a cell.
+    /// and every child taken that is not a cell.
     fn trace(&self) -> Trace {
         let nodes = self
             .passes
             .saturating_add(1)
-            .saturating_sub(u64::from(self.tr.cells));
+            .saturating_sub(u64::from(self.tr.cells))
+            .saturating_sub(self.skipped);
         Trace {
             steps: u32::try_from(nodes).unwrap_or(u32::MAX),
             ..self.tr
@@ -341,8 +362,9 @@ impl<T: Terrain> RayTracer<'_, T> {
     /// tested at once (see `ray/wide.rs`): the same hits, the same cells tested or fewer (cells
     /// the ray only touches at a point are skipped), in fewer and wider steps.
     /// [`Trace::steps`] counts the nodes whose children were tested. This is the portable
-    /// form, built for the target's baseline vector unit; on x86-64, `trace_maxmip_wide_avx2`
-    /// and `trace_maxmip_wide_avx512` give the same traces where the CPU has those features.
+    /// form, built for the target's baseline vector unit; on x86-64, `trace_maxmip_wide_avx512`
+    /// gives the same traces where the CPU has AVX-512F, and `trace_maxmip_wide_avx2` the same
+    /// hits and cells where it has AVX2 (its steps may be more: see `ray/wide.rs`).
     /// [`Error::LengthMismatch`] if `mip` belongs to another grid size.
     ///
     /// ```
@@ -402,7 +424,17 @@ impl<T: Terrain> RayTracer<'_, T> {
             rays,
             mip,
             out,
-            |lr, oct| Consts::new(lr, oct, mip),
+            (
+                || Consts::new(&IDLE, 0, mip),
+                |lr, oct| Some(Consts::new(lr, oct, mip)),
+                // Never called: the portable form walks every ray interleaved.
+                |ray, st, o| {
+                    let c = Consts::new(&st.0, st.2, mip);
+                    self.wide_loop(ray, mip, o, st, c, |c, child, ix, iy| {
+                        wide_node(mip, c, child, ix, iy)
+                    })
+                },
+            ),
             |c, child, ix, iy| wide_node(mip, c, child, ix, iy),
         );
         Ok(())
@@ -470,33 +502,34 @@ impl<T: Terrain> RayTracer<'_, T> {
     /// [`Self::wide_loop`] for each ray of `rays` into `out` (at least as long; the caller
     /// checks), [`WIDE_INTERLEAVED`] walks at a time, a pass of each in turn, so that their
     /// dependent chains of loads and compares overlap; a walk that ends takes the next ray.
-    /// `start` makes a ray's node constants from its clipped ray and octant.
+    /// `start` makes a ray's node constants from its clipped ray and octant, or gives `None`
+    /// for a ray that `alone` walks by itself into its trace (the AVX2 form's rays outside
+    /// its `f32` test's range); `idle` makes the constants of a walk without a ray, which no
+    /// pass reads.
     #[inline(always)]
     fn wide_rays<C>(
         &self,
         rays: &[Ray],
         mip: &MaxMip<'_>,
         out: &mut [Trace],
-        start: impl Fn(&LocalRay, usize) -> C,
+        form: (
+            impl Fn() -> C,
+            impl Fn(&LocalRay, usize) -> Option<C>,
+            impl Fn(&Ray, (LocalRay, u32, usize), &mut Trace),
+        ),
         node: impl Fn(&C, u32, u32, u32) -> u32,
     ) {
+        let (idle, start, alone) = form;
         // Idle walks (`live` false) until the first rays arrive: a ray that stays still at the
-        // origin, whose constants no pass reads.
-        let idle = LocalRay {
-            o: DVec3::ZERO,
-            d: DVec3::ZERO,
-            inv: [0.0; 2],
-            t0: 0.0,
-            t1: 0.0,
-        };
+        // origin.
         let mut walks: [WideWalk<C>; WIDE_INTERLEAVED] = core::array::from_fn(|_| {
-            let mut w = WideWalk::new(0, idle, start(&idle, 0), mip, (2, 0, 0));
+            let mut w = WideWalk::new(0, IDLE, idle(), mip, (2, 0, 0));
             w.live = false;
             w
         });
         let mut next = 0usize;
         for w in walks.iter_mut() {
-            self.wide_refill(w, &mut next, rays, mip, out, (&start, &node));
+            self.wide_refill(w, &mut next, rays, mip, out, (&start, &alone, &node));
         }
         // Bounded: each round makes a pass of every live walk; a ray takes at most
         // `mip.bound + 1` passes, so `rays * (mip.bound + 1) + 1` rounds cover every ray.
@@ -515,7 +548,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                         *o = w.trace();
                     }
                     w.live = false;
-                    self.wide_refill(w, &mut next, rays, mip, out, (&start, &node));
+                    self.wide_refill(w, &mut next, rays, mip, out, (&start, &alone, &node));
                 }
             }
             if !busy {
@@ -525,10 +558,11 @@ impl<T: Terrain> RayTracer<'_, T> {
     }
 
     /// A walk of [`Self::wide_rays`] that has ended takes the next ray from `next` on that does
-    /// not end at its start (a miss, or a hit at the start, written at once); it stays idle
-    /// when none is left. At most `rays.len()` starts over a slice. A method rather than a
-    /// closure, so that it is inlined with the caller's target features (a closure is compiled
-    /// with those of the function that defines it).
+    /// not end at its start (a miss, or a hit at the start, written at once) and that `start`
+    /// gives constants for (`alone` traces the others at once); it stays idle when none is
+    /// left. At most `rays.len()` starts over a slice. A method rather than a closure, so that
+    /// it is inlined with the caller's target features (a closure is compiled with those of
+    /// the function that defines it).
     #[inline(always)]
     fn wide_refill<C>(
         &self,
@@ -537,8 +571,9 @@ impl<T: Terrain> RayTracer<'_, T> {
         rays: &[Ray],
         mip: &MaxMip<'_>,
         out: &mut [Trace],
-        (start, node): (
-            &impl Fn(&LocalRay, usize) -> C,
+        (start, alone, node): (
+            &impl Fn(&LocalRay, usize) -> Option<C>,
+            &impl Fn(&Ray, (LocalRay, u32, usize), &mut Trace),
             &impl Fn(&C, u32, u32, u32) -> u32,
         ),
     ) {
@@ -550,9 +585,13 @@ impl<T: Terrain> RayTracer<'_, T> {
             };
             *o = Trace::default();
             if let Some((lr, root, oct)) = self.wide_start(ray, mip, o) {
-                let c = start(&lr, oct);
-                let mask = node(&c, root - 2, 0, 0);
-                w.restart(i, lr, c, mip, (root, oct, mask));
+                match start(&lr, oct) {
+                    Some(c) => {
+                        let mask = node(&c, root - 2, 0, 0);
+                        w.restart(i, lr, c, mip, (root, oct, mask));
+                    }
+                    None => alone(ray, (lr, root, oct), o),
+                }
             }
         }
     }
@@ -593,13 +632,24 @@ impl<T: Terrain> RayTracer<'_, T> {
         let [kx, ky] = w.order[j];
         let (gx, gy) = (4 * w.cur.ix + kx, 4 * w.cur.iy + ky);
         if w.cur.child == 0 {
-            w.tr.cells += 1;
             // Cell `(gx, gy)`: child 0 of a block at `(gx, gy)` with nodes of size 1, the
-            // operations and values of its lane in the node's test.
+            // operations and values of its lane in the exact node test, made again here: a
+            // node test that is only conservative (the AVX2 form's `f32` test) enters cells
+            // the exact one would not, and those are skipped (for the exact forms this never
+            // happens).
             let (_, ax, ex) = w.x.span(0.0, f64::from(gx), 1.0);
             let (_, ay, ey) = w.y.span(0.0, f64::from(gy), 1.0);
             let ta = max_f(max_f(w.lr.t0, ax), ay);
             let tb = min_f(min_f(w.lr.t1, ex), ey);
+            // The lane's interval and height test (a cell of the grid is live, and the `f32`
+            // test takes only rays moving along both axes, whose `on` test is always true).
+            let m = tile(mip, 0, w.cur.ix, w.cur.iy)[(ky * 4 + kx) as usize & 15];
+            let zmin = w.lr.o.z + (if w.lr.d.z < 0.0 { tb } else { ta }) * w.lr.d.z;
+            if !(ta < tb && zmin <= f64::from(m)) {
+                w.skipped += 1;
+                return false;
+            }
+            w.tr.cells += 1;
             if let Some(h) = self.wide_cell(&w.lr, gx, gy, ta, tb) {
                 w.tr.hit = rays.get(w.i).map(|ray| self.wide_hit(ray, gx, gy, h));
                 return true;
