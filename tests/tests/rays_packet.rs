@@ -471,8 +471,9 @@ fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
 /// origins, grazing rays along the long axis, tiny and huge direction components (inside and
 /// outside the `f32` test's range), and rays aimed exactly at sample tops (the ray's lowest
 /// point over a node equal to its maximum, where an `f32` rounding without margin rejects a
-/// node the exact test enters), rays clipped to a point at the grid's edge, on every surface. With no margins (`MARGIN` and `FLOOR` 0)
-/// this test, `packet_paths_give_the_same_depth_image_on_the_bundled_dem` and
+/// node the exact test enters), rays clipped to a point at the grid's edge, on every surface.
+/// With no margins (`MARGIN` and `FLOOR` 0) this test,
+/// `packet_paths_give_the_same_depth_image_on_the_bundled_dem` and
 /// `packet_paths_handle_pyramids_taller_than_the_lane_tables` fail.
 #[test]
 fn wide_avx2_f32_node_test_misses_no_cell() {

@@ -18,11 +18,11 @@
 //! fewer, and the hits are those of [`RayTracer::trace_maxmip`] (bit for bit on the rays of
 //! the packet tests and the `rays` fuzz target; rays aimed exactly at a sample's top on the
 //! domain's edge may touch it by a rounding unit in one walk and not the other, or hit the
-//! other cell at that corner: `HARD_CASES.md`). The walk takes a node's children in the order the ray
-//! crosses them (a ray's path through a 4 x 4 block is a monotone staircase, one child per
-//! anti-diagonal counted from the corner it enters by), so the next child is the lowest set bit
-//! of the node's mask in that order; a node with children left waits on a stack of at most one
-//! node per level pair, and the first cell hit ends the ray.
+//! other cell at that corner: `HARD_CASES.md`). The walk takes a node's children in the order
+//! the ray crosses them (a ray's path through a 4 x 4 block is a monotone staircase, one child
+//! per anti-diagonal counted from the corner it enters by), so the next child is the lowest set
+//! bit of the node's mask in that order; a node with children left waits on a stack of at most
+//! one node per level pair, and the first cell hit ends the ray.
 //!
 //! Three forms of the node test share the walk ([`RayTracer::wide_loop`]), each giving the
 //! same hits and testing the same cells:
@@ -149,6 +149,17 @@ fn tile(mip: &MaxMip<'_>, child: u32, ix: u32, iy: u32) -> [f32; 16] {
         .get(t)
         .copied()
         .unwrap_or([f32::NEG_INFINITY; 16])
+}
+
+/// The most passes a walk takes. Each pass takes one child the ray's segment crosses, and a
+/// node is only pushed with a child left: with the exact test at most `w + h + 1` nodes of each
+/// `w x h` level the walk tests (every other level), within `mip.step_bound()`, which counts
+/// `2 (w + h) + 2` for every level. The AVX2 form's `f32` test also takes children the segment
+/// passes within a quarter of a node, at most as many again; twice the step bound covers both
+/// with room to spare, so that no walk is cut short.
+#[inline(always)]
+fn wide_bound(mip: &MaxMip<'_>) -> u64 {
+    mip.bound.saturating_mul(2)
 }
 
 /// Per-ray constants of one horizontal axis (portable node).
@@ -490,9 +501,10 @@ impl<T: Terrain> RayTracer<'_, T> {
     ) {
         let mask = node(&c, root - 2, 0, 0);
         let mut w = WideWalk::new(0, lr, c, mip, (root, oct, mask));
-        // Bounded: `wide_step` ends the walk after `mip.bound` passes.
-        for _ in 0..=mip.bound {
-            if self.wide_step(core::slice::from_ref(ray), mip, &mut w, &node) {
+        // Bounded: `wide_step` ends the walk after `wide_bound(mip)` passes.
+        let bound = wide_bound(mip);
+        for _ in 0..=bound {
+            if self.wide_step(core::slice::from_ref(ray), mip, &mut w, &node, bound) {
                 break;
             }
         }
@@ -532,9 +544,10 @@ impl<T: Terrain> RayTracer<'_, T> {
             self.wide_refill(w, &mut next, rays, mip, out, (&start, &alone, &node));
         }
         // Bounded: each round makes a pass of every live walk; a ray takes at most
-        // `mip.bound + 1` passes, so `rays * (mip.bound + 1) + 1` rounds cover every ray.
+        // `bound + 1` passes, so `rays * (bound + 1) + 1` rounds cover every ray.
+        let bound = wide_bound(mip);
         let rounds = (rays.len() as u64)
-            .saturating_mul(mip.bound.saturating_add(1))
+            .saturating_mul(bound.saturating_add(1))
             .saturating_add(1);
         for _ in 0..rounds {
             let mut busy = false;
@@ -543,7 +556,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                     continue;
                 }
                 busy = true;
-                if self.wide_step(rays, mip, w, &node) {
+                if self.wide_step(rays, mip, w, &node, bound) {
                     if let Some(o) = out.get_mut(w.i) {
                         *o = w.trace();
                     }
@@ -598,12 +611,10 @@ impl<T: Terrain> RayTracer<'_, T> {
 
     /// One pass of a walk: takes the current node's next child (the lowest bit of its mask, or
     /// pops a node when it has none left) and tests it, a cell exactly, a node by `node`.
-    /// `true` when the walk is done: a hit, no node left, or `mip.bound` passes (each pass
-    /// takes one child the ray's segment crosses, at most `mip.step_bound()` over all levels,
-    /// since a line crosses at most `w + h + 1` nodes of a `w x h` level, and a node is only
-    /// pushed with a child left). A cell's interval is computed again when it is tested, with
-    /// the scalar form of the node's operations ([`Axis::span`]), rather than kept from its
-    /// node's test for every lane (the same values).
+    /// `true` when the walk is done: a hit, no node left, or `bound` ([`wide_bound`]) passes.
+    /// A cell's interval is computed again when it is tested, with the scalar form of the
+    /// node's operations ([`Axis::span`]), rather than kept from its node's test for every lane
+    /// (the same values).
     #[inline(always)]
     fn wide_step<C>(
         &self,
@@ -611,8 +622,9 @@ impl<T: Terrain> RayTracer<'_, T> {
         mip: &MaxMip<'_>,
         w: &mut WideWalk<C>,
         node: &impl Fn(&C, u32, u32, u32) -> u32,
+        bound: u64,
     ) -> bool {
-        if w.passes >= mip.bound {
+        if w.passes >= bound {
             return true;
         }
         if w.cur.mask == 0 {

@@ -16,18 +16,19 @@
 //!   widened interval holds the exact test's interval and its lowest point lies at or below
 //!   the exact one. Each margin and the segment's end get an absolute floor of `2^-119`, above
 //!   what an `f32` underflow loses (a segment of 1e-49 at the grid's edge, found by the `rays`
-//!   fuzz target, rounded to an empty one and lost a hit). Every child the exact (`f64`) test enters is entered; a few more may be
-//!   (a ray passing within a quarter of a cell of a node: 0.01-0.04% more steps on the
-//!   views of `bench-peers/maxmip_ab.py`). A cell is tested only after its lane's exact test
-//!   (`RayTracer::wide_step`), and a node the exact test rejects holds no cell the exact test
-//!   accepts (the intervals and heights are monotone), so the cells tested and the hits are
-//!   those of the exact forms; `Trace::steps` may be larger. Embree's robust traversal
-//!   widens its `f32` boxes in the same spirit.
+//!   fuzz target, rounded to an empty one). Every child the exact (`f64`) test enters is
+//!   entered; a few more may be (a ray passing within a quarter of a cell of a node: 0.01-0.04%
+//!   more steps on the views of `bench-peers/maxmip_ab.py`). A cell is tested only after its
+//!   lane's exact test (`RayTracer::wide_step`), and a node the exact test rejects holds no
+//!   cell the exact test accepts (the intervals and heights are monotone), so the cells tested
+//!   and the hits are those of the exact forms; `Trace::steps` may be larger. Embree's robust
+//!   traversal widens its `f32` boxes in the same spirit.
 //! - **`f64`, exact** (`Exact`) otherwise: the operations of the portable node (and of the
 //!   neighbour walk's step) in the same order, so the traces are the portable form's.
 //!
-//! The margins are checked against the exact test on random and adversarial rays by the
-//! core's `fast_node_enters_every_child_the_exact_node_enters`.
+//! The margins are checked against the exact forms on adversarial rays by
+//! `tests/tests/rays_packet.rs::wide_avx2_f32_node_test_misses_no_cell` (which fails with the
+//! margins at 0) and by the `rays` fuzz target.
 
 use super::{block, tile, CROSSING};
 use crate::ray::cell::LocalRay;
@@ -189,11 +190,9 @@ impl Fast {
     #[target_feature(enable = "avx2")]
     #[inline]
     fn idle() -> Fast {
-        let z = FastAxis::new(0.0, 0.0, 0.0, 0, 0.0);
-        let y = FastAxis::new(0.0, 0.0, 0.0, 0, 0.0);
         Fast {
-            x: z,
-            y,
+            x: FastAxis::new(0.0, 0.0, 0.0, 0, 0.0),
+            y: FastAxis::new(0.0, 0.0, 0.0, 0, 0.0),
             oz: _mm256_setzero_ps(),
             dz: _mm256_setzero_ps(),
             down: _mm256_setzero_ps(),
