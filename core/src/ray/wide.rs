@@ -439,12 +439,7 @@ impl<T: Terrain> RayTracer<'_, T> {
                 || Consts::new(&IDLE, 0, mip),
                 |lr, oct| Some(Consts::new(lr, oct, mip)),
                 // Never called: the portable form walks every ray interleaved.
-                |ray, st, o| {
-                    let c = Consts::new(&st.0, st.2, mip);
-                    self.wide_loop(ray, mip, o, st, c, |c, child, ix, iy| {
-                        wide_node(mip, c, child, ix, iy)
-                    })
-                },
+                |ray, _, o| self.wide_portable(ray, mip, o),
             ),
             |c, child, ix, iy| wide_node(mip, c, child, ix, iy),
         );
