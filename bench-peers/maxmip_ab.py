@@ -15,7 +15,8 @@ in the temporary folder it names. List a binary twice, alternated, to see the ma
 IR=1 counts instructions instead of timing (valgrind's cachegrind, `--chunk-reps 1`, so each
 view traces its rays twice): the instructions executed in the tracing code (functions under
 `relief_core::ray`, less the pyramid's build and the tracer's height scan), which, unlike the
-time, do not move with the machine's load.
+time, do not move with the machine's load. IR=functions prints them by function too (the shares
+BENCHMARKS.md quotes for "where the default walk's time goes").
 """
 import hashlib
 import json
@@ -42,8 +43,9 @@ DEMS = [
 ]
 
 
-def ray_instructions(cmd, tmp):
-    """Instructions executed in `relief_core::ray` functions by `cmd`, under cachegrind."""
+def ray_instructions(cmd, tmp, by_function=None):
+    """Instructions executed in `relief_core::ray` functions by `cmd`, under cachegrind; adds
+    each function's count to the dict `by_function` when one is given."""
     cg = os.path.join(tmp, "cachegrind.out")
     cmd = ["valgrind", "--tool=cachegrind", "--cache-sim=no", f"--cachegrind-out-file={cg}"] + cmd
     subprocess.run(cmd, check=True, capture_output=True)
@@ -60,7 +62,11 @@ def ray_instructions(cmd, tmp):
         # height scan, which come before the timed tracing.
         f = m.group(2) if m else ""
         if "relief_core::ray" in f and "MaxMip::build" not in f and "RayTracer<T>::new" not in f:
-            total += int(m.group(1).replace(",", ""))
+            n = int(m.group(1).replace(",", ""))
+            total += n
+            if by_function is not None:
+                name = f.strip().split("::")[-1]
+                by_function[name] = by_function.get(name, 0) + n
     return total
 
 
@@ -69,12 +75,13 @@ def main():
     if not bins:
         sys.exit(__doc__)
     packet = os.environ.get("PACKET", "0") == "1"
-    ir = os.environ.get("IR", "0") == "1"
+    ir = os.environ.get("IR", "0") in ("1", "functions")
+    by_fn = os.environ.get("IR") == "functions"
     wide = os.environ.get("WIDE", "0") == "1"
     only = os.environ.get("ONLY", "").split()
     tmp = tempfile.mkdtemp()
     out = os.path.join(tmp, "depth.f32")
-    what = "M instructions" if os.environ.get("IR", "0") == "1" else "steps, M rays/s"
+    what = "M instructions" if ir else "steps, M rays/s"
     print("| DEM | view | " + " | ".join(f"{os.path.basename(b)}: {what}" for b in bins) + " | images |")
     print("|---|---|" + "---|" * len(bins) + "---|")
     for name, path, fm, dx, dy, zmul in DEMS:
@@ -107,8 +114,11 @@ def main():
                 if os.environ.get("SHOW") == "1":
                     print("    " + " ".join(cmd), flush=True)
                 if ir:
-                    n = ray_instructions(cmd, tmp)
+                    funcs = {} if by_fn else None
+                    n = ray_instructions(cmd, tmp, funcs)
                     cells.append(f"{n / 1e6:.1f}")
+                    for f, k in sorted((funcs or {}).items(), key=lambda e: -e[1])[:8]:
+                        print(f"    {os.path.basename(b)} {name} {vn}: {f} {k / 1e6:.1f} M ({100 * k / n:.1f}%)")
                 else:
                     rj = json.loads(subprocess.run(cmd, check=True, capture_output=True).stdout)
                     cells.append(f"{rj['steps']}, {rj['rays_per_s_chunked'] / 1e6:.2f}")

@@ -409,16 +409,21 @@ fn node_exact(mip: &MaxMip<'_>, c: &Exact, child: u32, ix: u32, iy: u32) -> u32 
         );
         (_mm256_movemask_pd(e) as u32) << (4 * r)
     };
-    // Live children: a live column in a live row (the columns' bits repeated in every row,
-    // the rows' spread to four bits each).
-    let live = (lx * 0x1111) & u32::from(ROWS[(ly & 15) as usize]);
-    let m = live
-        & (row(0, row_lanes::<0x00>(ay, ey))
-            | row(1, row_lanes::<0x55>(ay, ey))
-            | row(2, row_lanes::<0xaa>(ay, ey))
-            | row(3, row_lanes::<0xff>(ay, ey)));
-    let cross = c.cross[0][(m & 0xff) as usize] | c.cross[1][(m >> 8 & 0xff) as usize];
-    u32::from(cross)
+    let m = row(0, row_lanes::<0x00>(ay, ey))
+        | row(1, row_lanes::<0x55>(ay, ey))
+        | row(2, row_lanes::<0xaa>(ay, ey))
+        | row(3, row_lanes::<0xff>(ay, ey));
+    crossing_mask(c.cross, lx, ly, m)
+}
+
+/// The children to enter, in crossing order (`cross`, [`CROSSING`] of the ray's octant), from
+/// the tile-order mask `m` of those passing the test and the live columns `lx` and rows `ly`: a
+/// live column in a live row (the columns' bits repeated in every row, the rows' spread to
+/// four bits each).
+#[inline(always)]
+fn crossing_mask(cross: &[[u16; 256]; 2], lx: u32, ly: u32, m: u32) -> u32 {
+    let m = m & (lx * 0x1111) & u32::from(ROWS[(ly & 15) as usize]);
+    u32::from(cross[0][(m & 0xff) as usize] | cross[1][(m >> 8 & 0xff) as usize])
 }
 
 /// The sixteen children (on level `child`) of node `(ix, iy)` two levels up, by the
@@ -453,12 +458,9 @@ fn node_fast(mip: &MaxMip<'_>, c: &Fast, child: u32, ix: u32, iy: u32) -> u32 {
         );
         (_mm256_movemask_ps(e) as u32) << (8 * h)
     };
-    let live = (lx * 0x1111) & u32::from(ROWS[(ly & 15) as usize]);
-    let m = live
-        & (half(0, _mm256_set_epi32(1, 1, 1, 1, 0, 0, 0, 0))
-            | half(1, _mm256_set_epi32(3, 3, 3, 3, 2, 2, 2, 2)));
-    let cross = c.cross[0][(m & 0xff) as usize] | c.cross[1][(m >> 8 & 0xff) as usize];
-    u32::from(cross)
+    let m = half(0, _mm256_set_epi32(1, 1, 1, 1, 0, 0, 0, 0))
+        | half(1, _mm256_set_epi32(3, 3, 3, 3, 2, 2, 2, 2));
+    crossing_mask(c.cross, lx, ly, m)
 }
 
 /// Row `r`'s y values (`IMM` is `r` in each of the four two-bit fields: `0x00`, `0x55`, `0xaa`,
