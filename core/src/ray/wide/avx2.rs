@@ -432,12 +432,14 @@ fn crossing_mask(cross: &[[u16; 256]; 2], lx: u32, ly: u32, m: u32) -> u32 {
 #[target_feature(enable = "avx2")]
 #[inline]
 fn node_fast(mip: &MaxMip<'_>, c: &Fast, child: u32, ix: u32, iy: u32) -> u32 {
-    let (s, bx, by) = block(child, ix, iy);
-    // Integers below 2^17 (grids of at most 2^16 cells a side), exact in `f32`.
+    // [`block`]'s values in `f32` directly (integers below 2^17 on grids of at most 2^16 cells
+    // a side, exact in `f32`; `2^child` from its exponent, and products with a power of two,
+    // are exact), without the round trip through `f64` on the pass's dependent chain.
+    let s = f32::from_bits((127 + (child & 63)) << 23);
     let (s, bx, by) = (
-        _mm_set1_ps(s as f32),
-        _mm_set1_ps(bx as f32),
-        _mm_set1_ps(by as f32),
+        _mm_set1_ps(s),
+        _mm_set1_ps(ix as f32 * 4.0 * s),
+        _mm_set1_ps(iy as f32 * 4.0 * s),
     );
     let halves: [__m256; 2] = cast(tile(mip, child, ix, iy));
     let (lx, ax, ex) = c.x.span(bx, s);
