@@ -20,9 +20,17 @@ of each side (`*_best`).
 
 With CHUNK=K (and REPS=N, default 9) in the environment it also times both sides in chunks of K
 consecutive rays, each chunk N times, summing the fastest time of each chunk (relief through its
-hidden `--chunk-rays K --chunk-reps N` option), twice each, alternating: on a loaded machine such
-short timings are rarely preempted. Chunks traced repeatedly are warmer in the caches than one
+hidden `--chunk-rays K --chunk-reps N` option), twice each (CHUNK_ROUNDS=R: R times), alternating,
+the fastest of those rounds for each side: on a loaded machine such short timings are rarely
+preempted. Chunks traced repeatedly are warmer in the caches than one
 pass over the image, for both sides alike.
+
+With IR=1 it also counts instructions per ray under valgrind:
+relief's (cachegrind, `--cache-sim=no`) in its `relief_core::ray` functions for one trace of the image (`Ray::new` included,
+the pyramid's build not; `maxmip_ab.py`'s count), Embree's inside `rtcIntersect1` (callgrind
+collecting in that function only: its BVH build and embreex's per-ray wrapper not counted;
+`embree_instructions`).
+Instruction counts do not move with the machine's load, unlike the times.
 
 Environment: python3 -m venv /tmp/venv-embree && /tmp/venv-embree/bin/pip install
 embreex==4.4.0.post1 numpy pillow
@@ -86,9 +94,10 @@ def fmt(v):
     return ",".join(repr(float(x)) for x in v)
 
 
-def main():
-    (relief, raw, gw, gh, dx, dy, view_name, size, method, rounds) = sys.argv[1:11]
-    gw, gh, dx, dy, rounds = int(gw), int(gh), float(dx), float(dy), int(rounds)
+def scene_and_rays(raw, gw, gh, dx, dy, view_name, size):
+    """The view's camera, Embree's scene of the full-resolution triangulation (camera-relative
+    f32 vertices, BVH built by a first untimed call) and the rays: (scene, origins, dirs, eye,
+    target, fov)."""
     w, h = (int(v) for v in size.lower().split("x"))
     z = np.fromfile(raw, dtype="<f4").astype(np.float64).reshape(gh, gw)
     eye, target, fov = view(view_name, z, dx, dy)
@@ -109,6 +118,39 @@ def main():
     dirs = camera_rays(eye, target, fov, w, h).astype(np.float32)
     origins = np.zeros_like(dirs)
     scene.run(origins, dirs, output=1)  # builds the BVH
+    return scene, origins, dirs, eye, target, fov
+
+
+def embree_instructions(args, rays, tmp):
+    """Instructions per ray of Embree's single-ray query on the view (`args`: raw, w, h, dx,
+    dy, view, size): this script under valgrind's callgrind, collecting only inside
+    `rtcIntersect1` (inclusive of what it calls; the BVH build and embreex's per-ray wrapper are
+    not counted), over the one trace of the rays that builds the BVH."""
+    out = os.path.join(tmp, "embree.callgrind")
+    subprocess.run(
+        ["valgrind", "--tool=callgrind", "--toggle-collect=rtcIntersect1",
+         f"--callgrind-out-file={out}", sys.executable, __file__, "--embree-only", *args, "0"],
+        check=True,
+        capture_output=True,
+    )
+    with open(out) as f:
+        total = [int(l.split()[1]) for l in f if l.startswith("summary:")]
+    return total[0] / rays
+
+
+def main():
+    if sys.argv[1] == "--embree-only":
+        # The child of `embree_instructions`: build, then trace the rays REPS times.
+        (raw, gw, gh, dx, dy, view_name, size, reps) = sys.argv[2:10]
+        scene, origins, dirs = scene_and_rays(
+            raw, int(gw), int(gh), float(dx), float(dy), view_name, size
+        )[:3]
+        for _ in range(int(reps)):
+            scene.run(origins, dirs, output=1)
+        return
+    (relief, raw, gw, gh, dx, dy, view_name, size, method, rounds) = sys.argv[1:11]
+    gw, gh, dx, dy, rounds = int(gw), int(gh), float(dx), float(dy), int(rounds)
+    scene, origins, dirs, eye, target, fov = scene_and_rays(raw, gw, gh, dx, dy, view_name, size)
 
     out = tempfile.NamedTemporaryFile(suffix=".f32", delete=False).name
     extra, label = [], method
@@ -136,7 +178,7 @@ def main():
     if chunk > 0:
         reps = int(os.environ.get("REPS", "9"))
         rc, ec = [], []
-        for _ in range(2):
+        for _ in range(int(os.environ.get("CHUNK_ROUNDS", "2"))):
             rj = json.loads(
                 subprocess.run(
                     cmd + ["--chunk-rays", str(chunk), "--chunk-reps", str(reps)],
@@ -159,9 +201,26 @@ def main():
         chunked = {
             "chunk_rays": chunk,
             "chunk_reps": reps,
+            "chunk_rounds": len(rc),
+            "relief_chunked_all": rc,
+            "embree_chunked_all": ec,
             "relief_rays_per_s_chunked": max(rc),
             "embree_rays_per_s_chunked": max(ec),
             "relief_over_embree_chunked": max(rc) / max(ec),
+        }
+    counted = {}
+    if os.environ.get("IR") == "1":
+        from maxmip_ab import ray_instructions
+
+        with tempfile.TemporaryDirectory() as tmp:
+            rel = ray_instructions(cmd, tmp) / len(dirs)
+            emb = embree_instructions(
+                [raw, str(gw), str(gh), str(dx), str(dy), view_name, size], len(dirs), tmp
+            )
+        counted = {
+            "relief_instructions_per_ray": rel,
+            "embree_instructions_per_ray": emb,
+            "relief_over_embree_instructions": rel / emb,
         }
     te = np.where(res["geomID"] >= 0, res["tfar"], np.inf).astype(np.float64)
     tr = np.fromfile(out, dtype="<f4").astype(np.float64)
@@ -192,6 +251,7 @@ def main():
                 "embree_rays_per_s_best": eb,
                 "relief_over_embree_best": rb / eb,
                 **chunked,
+                **counted,
             }
         )
     )
