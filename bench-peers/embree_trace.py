@@ -129,7 +129,7 @@ def embree_instructions(args, rays, tmp):
     out = os.path.join(tmp, "embree.callgrind")
     subprocess.run(
         ["valgrind", "--tool=callgrind", "--toggle-collect=rtcIntersect1",
-         f"--callgrind-out-file={out}", sys.executable, __file__, "--embree-only", *args, "0"],
+         f"--callgrind-out-file={out}", sys.executable, __file__, "--embree-only", *args],
         check=True,
         capture_output=True,
     )
@@ -140,13 +140,9 @@ def embree_instructions(args, rays, tmp):
 
 def main():
     if sys.argv[1] == "--embree-only":
-        # The child of `embree_instructions`: build, then trace the rays REPS times.
-        (raw, gw, gh, dx, dy, view_name, size, reps) = sys.argv[2:10]
-        scene, origins, dirs = scene_and_rays(
-            raw, int(gw), int(gh), float(dx), float(dy), view_name, size
-        )[:3]
-        for _ in range(int(reps)):
-            scene.run(origins, dirs, output=1)
+        # The child of `embree_instructions`: the scene's build traces the rays once.
+        (raw, gw, gh, dx, dy, view_name, size) = sys.argv[2:9]
+        scene_and_rays(raw, int(gw), int(gh), float(dx), float(dy), view_name, size)
         return
     (relief, raw, gw, gh, dx, dy, view_name, size, method, rounds) = sys.argv[1:11]
     gw, gh, dx, dy, rounds = int(gw), int(gh), float(dx), float(dy), int(rounds)
