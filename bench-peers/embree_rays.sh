@@ -8,7 +8,8 @@
 # "maxmip maxmip-scalar run-dda"; also maxmip-wide: AVX-512F, AVX2 or portable) to those methods; VIEWS (default
 # "camera grazing"; also low, a level view from just above the ground) to those views.
 # CHUNK_ROUNDS (default 2) sets how many alternating chunked rounds embree_trace.py times;
-# IR=1 adds instructions per ray of both (cachegrind; see embree_trace.py).
+# IR=1 adds instructions per ray of both (valgrind: cachegrind for relief, callgrind inside
+# rtcIntersect1 for Embree; see embree_trace.py).
 # needs: python3 -m venv /tmp/venv-embree && /tmp/venv-embree/bin/pip install
 #        embreex==4.4.0.post1 numpy pillow    (or set PY to a python that has them)
 set -eu
