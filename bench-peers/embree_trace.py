@@ -25,12 +25,12 @@ the fastest of those rounds for each side: on a loaded machine such short timing
 preempted. Chunks traced repeatedly are warmer in the caches than one
 pass over the image, for both sides alike.
 
-With IR=1 it also counts instructions per ray under valgrind:
-relief's (cachegrind, `--cache-sim=no`) in its `relief_core::ray` functions for one trace of the image (`Ray::new` included,
-the pyramid's build not; `maxmip_ab.py`'s count), Embree's inside `rtcIntersect1` (callgrind
-collecting in that function only: its BVH build and embreex's per-ray wrapper not counted;
-`embree_instructions`).
-Instruction counts do not move with the machine's load, unlike the times.
+With IR=1 it also counts instructions per ray under valgrind: relief's (cachegrind,
+`--cache-sim=no`) in its `relief_core::ray` functions for one trace of the image (`Ray::new`
+included, the pyramid's build not; `maxmip_ab.py`'s count), Embree's inside `rtcIntersect1`
+(callgrind collecting in that function only: its BVH build and embreex's per-ray wrapper not
+counted; `embree_instructions`). Instruction counts do not move with the machine's load,
+unlike the times.
 
 Environment: python3 -m venv /tmp/venv-embree && /tmp/venv-embree/bin/pip install
 embreex==4.4.0.post1 numpy pillow
@@ -210,9 +210,8 @@ def main():
 
         with tempfile.TemporaryDirectory() as tmp:
             rel = ray_instructions(cmd, tmp) / len(dirs)
-            emb = embree_instructions(
-                [raw, str(gw), str(gh), str(dx), str(dy), view_name, size], len(dirs), tmp
-            )
+            # The view's arguments as given: raw, w, h, dx, dy, view, size.
+            emb = embree_instructions(sys.argv[2:9], len(dirs), tmp)
         counted = {
             "relief_instructions_per_ray": rel,
             "embree_instructions_per_ray": emb,
