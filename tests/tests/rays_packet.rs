@@ -9,7 +9,8 @@
 //! `trace_maxmip_wide_avx512` where the CPU has AVX-512F, giving exactly the portable form's
 //! traces, and `trace_maxmip_wide_avx2` where it has AVX2, giving its hits and cells in as many
 //! steps or more) gives the same hits (bit for bit) on all of these
-//! rays and tests the same cells or fewer (its step counts differ: nodes, not neighbour steps);
+//! rays and tests the same cells or fewer (its step counts differ: nodes, not neighbour steps;
+//! the one exception, a ray passing within a rounding unit of a vertex, has its own test);
 //! the grids include pyramids with an even and an odd number of levels above the cells, and a
 //! single cell.
 
@@ -433,15 +434,11 @@ fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
             4, 3, 255, 253, 0, 0, 0, 64, 0, 0, 0, 64, 3, 255, 253, 0, 0, 0, 64, 0, 0, 0, 64, 251,
             37, 4, 3, 255, 0, 0, 0, 64, 0, 5, 5, 255, 254, 67, 0, 155,
         ];
-        let f = |i: usize| f32::from_le_bytes([0, 1, 2, 3].map(|k| data[i + k]));
-        let (w, h) = (6u32, 5u32);
-        let s: Vec<f32> = (0..w * h)
-            .map(|i| f32::from(data.get(28 + i as usize).copied().unwrap_or(0)) - 100.0)
-            .collect();
+        let (w, h, s, o, d) = fuzz_input(&data);
+        assert_eq!((w, h), (6, 5));
         let hf = Heightfield::new(&s, w, h).unwrap();
         let mut mbuf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
         let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
-        let (o, d) = (Vec3::new(f(4), f(8), f(12)), Vec3::new(f(16), f(20), f(24)));
         let mut rays = vec![Ray::new(o, d).unwrap()];
         rays.extend((1..12u8).filter_map(|k| {
             let s = f32::from(k) * 0.37;
@@ -462,6 +459,78 @@ fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
             }
         }
     }
+}
+
+/// A `rays` fuzz input (hex in the comment below): a 10 x 13 grid, `plane` surface, a ray with
+/// subnormal `f32` direction components passing within a rounding unit of vertex (5, 4).
+/// Leaving cell (4, 3) its y exit comes one unit of `t` before its x exit, so it crosses cell
+/// (4, 4) for that one unit. The sixteen-wide walk tests (4, 4) (its interval is not empty);
+/// the neighbour walk descends by flooring its entry position, which rounds to x = 5, and skips
+/// it. The same hit; one cell more for the wide walk, at most one for each grid vertex the ray
+/// passes within a rounding unit of (`corner_passes`), the exception to "the same cells or
+/// fewer" that `ray/wide.rs` states and the fuzz target checks.
+#[test]
+fn wide_walk_may_test_a_cell_crossed_for_a_rounding_unit_at_a_vertex() {
+    // 08d70210ffff0206 0601000000000000 005a000000480000 78bf000000360000 0000003f01000000
+    // 0000000000000000 0000010043000046 040404003b0004f9 00bdbf0004800026 bf000000003f0000
+    // ffffffffffff0000 ff00000000000049 0400ffff00000004 00
+    let hex = "08d70210ffff02060601000000000000005a00000048000078bf000000360000000000003f01000000000000000000000000010043000046040404003b0004f900bdbf0004800026bf000000003f0000ffffffffffff0000ff000000000000490400ffff0000000400";
+    let data: Vec<u8> = (0..hex.len() / 2)
+        .map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap())
+        .collect();
+    let (w, h, s, o, d) = fuzz_input(&data);
+    assert_eq!((w, h, data[2] % 4), (10, 13, 2));
+    let hf = Heightfield::new(&s, w, h).unwrap();
+    let mut mbuf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
+    let mip = MaxMip::build(&hf, &mut mbuf).unwrap();
+    let ray = Ray::new(o, d).unwrap();
+    let t = RayTracer::new(&hf, Surface::Plane);
+    let n = t.trace_maxmip(&ray, &mip).unwrap();
+    let hit = n.hit.expect("the ray hits cell (5, 4)");
+    assert_eq!(hit.cell, [5, 4]);
+    assert_eq!(corner_passes(ray.origin(), ray.dir(), w, h), 1);
+    for (name, wide) in wide_variants() {
+        let g = wide(&t, &ray, &mip).unwrap();
+        assert_eq!(g.hit, n.hit, "{name}");
+        assert_eq!((g.cells, n.cells), (4, 3), "{name}");
+    }
+}
+
+/// A `rays` fuzz input (`fuzz/fuzz_targets/rays.rs`) decoded as the target does: the grid's
+/// width and height, its samples, and the ray's origin and direction.
+fn fuzz_input(data: &[u8]) -> (u32, u32, Vec<f32>, Vec3, Vec3) {
+    let f = |i: usize| f32::from_le_bytes([0, 1, 2, 3].map(|k| data[i + k]));
+    let (w, h) = (u32::from(data[0] % 12) + 2, u32::from(data[1] % 12) + 2);
+    let s = (0..w * h)
+        .map(|i| f32::from(data.get(28 + i as usize).copied().unwrap_or(0)) - 100.0)
+        .collect();
+    let o = Vec3::new(f(4), f(8), f(12));
+    (w, h, s, o, Vec3::new(f(16), f(20), f(24)))
+}
+
+/// The grid vertices (of a `w x h` grid with unit spacing at the origin) that the horizontal
+/// line of the ray from `o` along `d` passes within a rounding unit of: a distance below 1e-12
+/// of the vertex's and the origin's magnitude (plus one), far below any ray not aimed at the
+/// vertex.
+fn corner_passes(o: DVec3, d: DVec3, w: u32, h: u32) -> usize {
+    let (ox, oy, dx, dy) = (o.x, o.y, d.x, d.y);
+    let len = dx.hypot(dy);
+    if len == 0.0 {
+        return 0;
+    }
+    let (ux, uy) = (dx / len, dy / len);
+    let mut n = 0;
+    for j in 0..h {
+        for i in 0..w {
+            let (vx, vy) = (f64::from(i) - ox, f64::from(j) - oy);
+            let dist = (vx * uy - vy * ux).abs();
+            let ahead = vx * ux + vy * uy >= 0.0;
+            if ahead && dist <= 1e-12 * (1.0 + f64::from(i.max(j)) + ox.abs().max(oy.abs())) {
+                n += 1;
+            }
+        }
+    }
+    n
 }
 
 /// The AVX2 form of the sixteen-wide walk tests nodes in `f32`, with its intervals and heights

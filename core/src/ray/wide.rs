@@ -15,7 +15,12 @@
 //! entered. The neighbour walk tests two kinds of those: the cell under a start that lies on a
 //! cell boundary (whose one-point test `start_hit` has already made before either walk begins)
 //! and a cell entered exactly at the ray's clipped end. So the cells tested are the same or
-//! fewer, and the hits are those of [`RayTracer::trace_maxmip`] (bit for bit on the rays of
+//! fewer, but for one kind of ray: one that passes within a rounding unit of a grid vertex may
+//! cross a cell there for a rounding unit of `t`, which the wide walk tests (its interval is
+//! not empty) and the neighbour walk's descent, flooring its entry position past the corner,
+//! skips; one cell more for each such vertex, the same hit (found by the `rays` fuzz target:
+//! `tests/tests/rays_packet.rs::wide_walk_may_test_a_cell_crossed_for_a_rounding_unit_at_a_vertex`).
+//! The hits are those of [`RayTracer::trace_maxmip`] (bit for bit on the rays of
 //! the packet tests and the `rays` fuzz target; rays aimed exactly at a sample's top on the
 //! domain's edge may touch it by a rounding unit in one walk and not the other, or hit the
 //! other cell at that corner: `HARD_CASES.md`). The walk takes a node's children in the order
@@ -371,7 +376,8 @@ impl<C> WideWalk<C> {
 impl<T: Terrain> RayTracer<'_, T> {
     /// [`RayTracer::trace_maxmip`] through sixteen-wide nodes, the sixteen children of a node
     /// tested at once (see `ray/wide.rs`): the same hits, the same cells tested or fewer (cells
-    /// the ray only touches at a point are skipped), in fewer and wider steps.
+    /// the ray only touches at a point are skipped; a ray passing within a rounding unit of a
+    /// grid vertex may take one cell more there), in fewer and wider steps.
     /// [`Trace::steps`] counts the nodes whose children were tested. This is the portable
     /// form, built for the target's baseline vector unit; on x86-64, `trace_maxmip_wide_avx512`
     /// gives the same traces where the CPU has AVX-512F, and `trace_maxmip_wide_avx2` the same

@@ -104,7 +104,8 @@ struct Consts {
 impl<T: Terrain> RayTracer<'_, T> {
     /// [`RayTracer::trace_maxmip`] through sixteen-wide nodes, the sixteen children of a node
     /// tested in AVX-512 lanes (x86-64 only; see `ray/wide.rs`): the same hits, the same cells
-    /// tested or fewer (cells the ray only touches at a point are skipped), in fewer and wider
+    /// tested or fewer (cells the ray only touches at a point are skipped; a ray passing within
+    /// a rounding unit of a grid vertex may take one cell more there), in fewer and wider
     /// steps. [`Trace::steps`] counts the nodes whose children
     /// were tested. Safe to call only where the CPU has AVX-512F (check with
     /// `is_x86_feature_detected!` on the std side). [`Error::LengthMismatch`] if `mip` belongs
