@@ -5,7 +5,8 @@ usage: embree_trace.py RELIEF_BIN RAW.f32 W H DX DY VIEW WxH METHOD ROUNDS
 
 METHOD is a `relief trace --method` name, or `maxmip-scalar` for max-mip ray by ray
 (`--method maxmip --no-packet`; plain `maxmip` takes the default path for the CPU: AVX-512 packets, else the AVX2 sixteen-wide walk),
-or `maxmip-wide` for max-mip ray by ray through sixteen-wide nodes (`--no-packet --wide`: AVX-512F, else AVX2, else portable lanes).
+or `maxmip-wide` for max-mip ray by ray through sixteen-wide nodes (`--no-packet --wide`: AVX-512F, else AVX2, else portable lanes),
+or `maxmip:PATH` for a slice path other than the CPU's default (`--packet-path PATH`: avx512, wide-avx2, portable).
 
 RAW.f32 holds the heights in world units (make it with dem_to_raw.py; for the bundled Puget
 Sound PNG scale by 0.1 first or pass the PNG values and accept z in decimetres). VIEW is
@@ -154,6 +155,8 @@ def main():
         method, extra = "maxmip", ["--no-packet"]
     elif method == "maxmip-wide":
         method, extra = "maxmip", ["--no-packet", "--wide"]
+    elif method.startswith("maxmip:"):
+        method, extra = "maxmip", ["--packet-path", method.split(":", 1)[1]]
     cmd = [
         relief, "trace", "--dem", raw, "--format", "raw-f32", "--width", str(gw), "--height",
         str(gh), "--dx", str(dx), "--dy", str(dy), "--eye", fmt(eye), "--target", fmt(target),

@@ -167,6 +167,30 @@ fn maxmip_packet_and_ray_by_ray_write_identical_images() {
     assert_eq!(v["packet"], "off");
 }
 
+#[test]
+fn maxmip_every_packet_path_this_cpu_runs_writes_the_same_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut paths = vec![("portable", "neighbour")];
+    if wide_kind() != "portable" {
+        paths.push(("wide-avx2", "wide-avx2"));
+    }
+    if avx512_packets() {
+        paths.push(("avx512", "neighbour"));
+    }
+    for surface in ["triangles", "bilinear"] {
+        let (s, _) = trace(dir.path(), "maxmip", surface, &["--no-packet"]);
+        let bits = |d: &[f32]| d.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        for (path, walk) in &paths {
+            let (p, v) = trace(dir.path(), "maxmip", surface, &["--packet-path", path]);
+            assert_eq!(
+                (v["packet"].as_str(), v["walk"].as_str()),
+                (Some(*path), Some(*walk))
+            );
+            assert_eq!(bits(&p), bits(&s), "{surface} ({path})");
+        }
+    }
+}
+
 /// Whether `relief trace` should take the AVX-512 packets by default (AVX-512F and DQ).
 fn avx512_packets() -> bool {
     #[cfg(target_arch = "x86_64")]
@@ -245,5 +269,16 @@ fn march_view_dependent_samples_are_reported() {
         &bad(&["--method", "run-dda", "--no-packet", "--wide"]),
         "--no-packet",
     );
+    assert_one_line_error(
+        &bad(&["--method", "run-dda", "--packet-path", "portable"]),
+        "--packet-path",
+    );
+    assert_one_line_error(
+        &bad(&["--no-packet", "--packet-path", "portable"]),
+        "--packet-path",
+    );
+    if !avx512_packets() {
+        assert_one_line_error(&bad(&["--packet-path", "avx512"]), "lacks");
+    }
     assert!(!Path::new(&out).exists());
 }

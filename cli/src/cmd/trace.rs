@@ -92,6 +92,10 @@ pub struct TraceArgs {
     /// neighbour walk; the same hits.
     #[arg(long)]
     wide: bool,
+    /// Benchmarking aid, max-mip only, without --no-packet: the slice path to take instead of
+    /// this CPU's default (an error where the CPU lacks its features).
+    #[arg(long, value_name = "PATH", hide = true)]
+    packet_path: Option<Packet>,
     /// Benchmarking aid: after the image, time it again on this thread in chunks of K
     /// consecutive rays, each chunk --chunk-reps times, and report the sum of the fastest
     /// time of each chunk (JSON `trace_ms_chunked`, `rays_per_s_chunked`): on a loaded machine
@@ -202,14 +206,17 @@ impl Wide {
 }
 
 /// The path that traces a slice of max-mip rays without --no-packet.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Packet {
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum Packet {
     /// AVX-512 packets (`trace_maxmip_packet_avx512`), where the CPU has AVX-512F and DQ.
+    #[value(name = "avx512")]
     Avx512,
-    /// The sixteen-wide walk in AVX2 over the slice, two rays' walks interleaved
-    /// (`trace_maxmip_wide_rays_avx2`), where the CPU has AVX2.
+    /// The sixteen-wide walk over the slice, two rays' walks interleaved, its node test in AVX2
+    /// registers (`trace_maxmip_wide_rays_avx2`), where the CPU has AVX2.
+    #[value(name = "wide-avx2")]
     WideAvx2,
     /// The portable packets (`trace_maxmip_packet`: the neighbour walk, ray by ray).
+    #[value(name = "portable")]
     Portable,
 }
 
@@ -222,19 +229,38 @@ impl Packet {
             Packet::Portable => "portable",
         }
     }
+
+    /// The walk it takes, for the JSON `walk` field.
+    fn walk(self) -> &'static str {
+        match self {
+            Packet::WideAvx2 => "wide-avx2",
+            Packet::Avx512 | Packet::Portable => "neighbour",
+        }
+    }
+
+    /// Whether this CPU runs it.
+    fn supported(self) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        match self {
+            Packet::Avx512 => return has_avx512(),
+            Packet::WideAvx2 => return std::is_x86_feature_detected!("avx2"),
+            Packet::Portable => {}
+        }
+        self == Packet::Portable
+    }
 }
 
-/// The max-mip path taken without --no-packet, as `(packet, wide)`: AVX-512 packets where the
-/// CPU has AVX-512F and DQ; else, where it has AVX2, the rows handed as slices to the
-/// sixteen-wide walk in AVX2, which interleaves two rays' walks (1.4-1.7x the neighbour walk,
-/// BENCHMARKS.md "The sixteen-wide walk with fewer instructions"); else the portable packets.
-fn default_mip_path() -> (Packet, Option<Wide>) {
+/// The max-mip path taken without --no-packet: AVX-512 packets where the CPU has AVX-512F and
+/// DQ; else, where it has AVX2, the rows handed as slices to the sixteen-wide walk in AVX2,
+/// which interleaves two rays' walks (1.4-1.7x the neighbour walk, BENCHMARKS.md "The
+/// sixteen-wide walk with fewer instructions"); else the portable packets.
+fn default_mip_path() -> Packet {
     if has_avx512() {
-        (Packet::Avx512, None)
+        Packet::Avx512
     } else if Wide::detect() == Wide::Avx2 {
-        (Packet::WideAvx2, Some(Wide::Avx2))
+        Packet::WideAvx2
     } else {
-        (Packet::Portable, None)
+        Packet::Portable
     }
 }
 
@@ -268,10 +294,10 @@ fn trace_packet(
     packet: Packet,
 ) -> Result<(), relief_core::Error> {
     match packet {
-        // SAFETY: `default_mip_path` picks `Avx512` only where the CPU has AVX-512F and DQ.
+        // SAFETY: `Avx512` is taken only where the CPU has AVX-512F and DQ (`Packet::supported`).
         #[cfg(target_arch = "x86_64")]
         Packet::Avx512 => unsafe { tracer.trace_maxmip_packet_avx512(rays, mip, out) },
-        // SAFETY: `default_mip_path` picks `WideAvx2` only where the CPU has AVX2.
+        // SAFETY: `WideAvx2` is taken only where the CPU has AVX2 (`Packet::supported`).
         #[cfg(target_arch = "x86_64")]
         Packet::WideAvx2 => unsafe { tracer.trace_maxmip_wide_rays_avx2(rays, mip, out) },
         _ => tracer.trace_maxmip_packet(rays, mip, out),
@@ -310,6 +336,19 @@ pub fn run(a: &TraceArgs) -> CliResult {
             "--wide only applies to --method maxmip with --no-packet".into(),
         ));
     }
+    if let Some(p) = a.packet_path {
+        if a.method != Method::Maxmip || a.no_packet {
+            return Err(CliError(
+                "--packet-path only applies to --method maxmip without --no-packet".into(),
+            ));
+        }
+        if !p.supported() {
+            return Err(CliError(format!(
+                "--packet-path {}: this CPU lacks its features",
+                p.name()
+            )));
+        }
+    }
     if a.threads == Some(0) {
         return Err(CliError("--threads must be at least 1".into()));
     }
@@ -342,10 +381,7 @@ pub fn run(a: &TraceArgs) -> CliResult {
 
     let mut depth = vec![f32::INFINITY; w as usize * h as usize];
     let (packet, wide) = match (a.method, a.no_packet) {
-        (Method::Maxmip, false) => {
-            let (p, w) = default_mip_path();
-            (Some(p), w)
-        }
+        (Method::Maxmip, false) => (Some(a.packet_path.unwrap_or_else(default_mip_path)), None),
         (Method::Maxmip, true) => (None, a.wide.then(Wide::detect)),
         _ => (None, None),
     };
@@ -539,9 +575,10 @@ pub fn run(a: &TraceArgs) -> CliResult {
             "cells_visited": stats.cells,
             "steps": stats.steps,
             "packet": packet.map_or("off", Packet::name),
-            "walk": match (a.method, wide) {
-                (Method::Maxmip, Some(k)) => format!("wide-{}", k.name()),
-                (Method::Maxmip, None) => "neighbour".into(),
+            "walk": match (a.method, packet, wide) {
+                (Method::Maxmip, Some(p), _) => p.walk().into(),
+                (Method::Maxmip, None, Some(k)) => format!("wide-{}", k.name()),
+                (Method::Maxmip, None, None) => "neighbour".into(),
                 _ => "none".into(),
             },
             "trace_ms_includes_ray_setup": !pre,
