@@ -205,7 +205,8 @@ fuzz_target!(|data: &[u8]| {
 
 /// The grid vertices (of a `w x h` grid with unit spacing at the origin) that the horizontal
 /// line of the ray from `o` along `d` passes ahead of `o` within a rounding unit of: a distance
-/// below 1e-12 of the vertex's and the origin's magnitude (plus one).
+/// below 1e-12 of the vertex's and the origin's magnitude (plus one). As the test
+/// `wide_walk_may_test_a_cell_crossed_for_a_rounding_unit_at_a_vertex` counts them.
 fn corner_passes(o: DVec3, d: DVec3, w: u32, h: u32) -> usize {
     let len = d.x.hypot(d.y);
     if len == 0.0 {

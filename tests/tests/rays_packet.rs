@@ -461,7 +461,7 @@ fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
     }
 }
 
-/// A `rays` fuzz input (hex in the comment below): a 10 x 13 grid, `plane` surface, a ray with
+/// A `rays` fuzz input (`fuzz/seeds/rays/wide-corner-pass-one-ulp`, in hex below): a 10 x 13 grid, `plane` surface, a ray with
 /// subnormal `f32` direction components passing within a rounding unit of vertex (5, 4).
 /// Leaving cell (4, 3) its y exit comes one unit of `t` before its x exit, so it crosses cell
 /// (4, 4) for that one unit. The sixteen-wide walk tests (4, 4) (its interval is not empty);
@@ -471,9 +471,6 @@ fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
 /// fewer" that `ray/wide.rs` states and the fuzz target checks.
 #[test]
 fn wide_walk_may_test_a_cell_crossed_for_a_rounding_unit_at_a_vertex() {
-    // 08d70210ffff0206 0601000000000000 005a000000480000 78bf000000360000 0000003f01000000
-    // 0000000000000000 0000010043000046 040404003b0004f9 00bdbf0004800026 bf000000003f0000
-    // ffffffffffff0000 ff00000000000049 0400ffff00000004 00
     let hex = "08d70210ffff02060601000000000000005a00000048000078bf000000360000000000003f01000000000000000000000000010043000046040404003b0004f900bdbf0004800026bf000000003f0000ffffffffffff0000ff000000000000490400ffff0000000400";
     let data: Vec<u8> = (0..hex.len() / 2)
         .map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap())
@@ -509,23 +506,22 @@ fn fuzz_input(data: &[u8]) -> (u32, u32, Vec<f32>, Vec3, Vec3) {
 }
 
 /// The grid vertices (of a `w x h` grid with unit spacing at the origin) that the horizontal
-/// line of the ray from `o` along `d` passes within a rounding unit of: a distance below 1e-12
-/// of the vertex's and the origin's magnitude (plus one), far below any ray not aimed at the
-/// vertex.
+/// line of the ray from `o` along `d` passes ahead of `o` within a rounding unit of: a distance
+/// below 1e-12 of the vertex's and the origin's magnitude (plus one), far below any ray not
+/// aimed at the vertex. The fuzz target has the same function.
 fn corner_passes(o: DVec3, d: DVec3, w: u32, h: u32) -> usize {
-    let (ox, oy, dx, dy) = (o.x, o.y, d.x, d.y);
-    let len = dx.hypot(dy);
+    let len = d.x.hypot(d.y);
     if len == 0.0 {
         return 0;
     }
-    let (ux, uy) = (dx / len, dy / len);
+    let (ux, uy) = (d.x / len, d.y / len);
     let mut n = 0;
     for j in 0..h {
         for i in 0..w {
-            let (vx, vy) = (f64::from(i) - ox, f64::from(j) - oy);
+            let (vx, vy) = (f64::from(i) - o.x, f64::from(j) - o.y);
             let dist = (vx * uy - vy * ux).abs();
             let ahead = vx * ux + vy * uy >= 0.0;
-            if ahead && dist <= 1e-12 * (1.0 + f64::from(i.max(j)) + ox.abs().max(oy.abs())) {
+            if ahead && dist <= 1e-12 * (1.0 + f64::from(i.max(j)) + o.x.abs().max(o.y.abs())) {
                 n += 1;
             }
         }
