@@ -8,28 +8,23 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use relief_core::glam::{DVec2, DVec3, Vec3};
+use relief_core::glam::{DVec2, Vec3};
 use relief_core::ray::{GridLine, MarchOptions, MaxMip, Ray, RayTracer, RunAccel, Trace};
-use relief_core::{Heightfield, Surface, Terrain};
-
-fn f32_at(d: &[u8], i: usize) -> f32 {
-    f32::from_le_bytes([0, 1, 2, 3].map(|k| d.get(i + k).copied().unwrap_or(0)))
-}
+use relief_core::{Heightfield, Terrain};
+use relief_tests::ray_check::{corner_passes, RaysInput};
 
 fuzz_target!(|data: &[u8]| {
-    if data.len() < 40 {
+    let Some(RaysInput {
+        w,
+        h,
+        surface,
+        origin: o,
+        dir: d,
+        samples,
+    }) = RaysInput::decode(data)
+    else {
         return;
-    }
-    let w = u32::from(data[0] % 12) + 2;
-    let h = u32::from(data[1] % 12) + 2;
-    let surface = [
-        Surface::Triangles,
-        Surface::Bilinear,
-        Surface::Plane,
-        Surface::Nearest,
-    ][usize::from(data[2] % 4)];
-    let o = Vec3::new(f32_at(data, 4), f32_at(data, 8), f32_at(data, 12));
-    let d = Vec3::new(f32_at(data, 16), f32_at(data, 20), f32_at(data, 24));
+    };
 
     // Digital lines: run DDA cells == cell DDA cells, for any finite input.
     let (s2, d2) = (
@@ -57,9 +52,6 @@ fuzz_target!(|data: &[u8]| {
         }
     }
 
-    let samples: Vec<f32> = (0..w * h)
-        .map(|i| f32::from(data.get(28 + i as usize).copied().unwrap_or(0)) - 100.0)
-        .collect();
     let hf = Heightfield::new(&samples, w, h).unwrap();
     let Ok(ray) = Ray::new(o, d) else {
         return;
@@ -202,27 +194,3 @@ fuzz_target!(|data: &[u8]| {
         }
     }
 });
-
-/// The grid vertices (of a `w x h` grid with unit spacing at the origin) that the horizontal
-/// line of the ray from `o` along `d` passes ahead of `o` within a rounding unit of: a distance
-/// below 1e-12 of the vertex's and the origin's magnitude (plus one). As the test
-/// `wide_walk_may_test_a_cell_crossed_for_a_rounding_unit_at_a_vertex` counts them.
-fn corner_passes(o: DVec3, d: DVec3, w: u32, h: u32) -> usize {
-    let len = d.x.hypot(d.y);
-    if len == 0.0 {
-        return 0;
-    }
-    let (ux, uy) = (d.x / len, d.y / len);
-    let mut n = 0;
-    for j in 0..h {
-        for i in 0..w {
-            let (vx, vy) = (f64::from(i) - o.x, f64::from(j) - o.y);
-            let dist = (vx * uy - vy * ux).abs();
-            let ahead = vx * ux + vy * uy >= 0.0;
-            if ahead && dist <= 1e-12 * (1.0 + f64::from(i.max(j)) + o.x.abs().max(o.y.abs())) {
-                n += 1;
-            }
-        }
-    }
-    n
-}

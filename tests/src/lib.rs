@@ -3,3 +3,4 @@
 
 pub mod fixtures;
 pub mod mesh_check;
+pub mod ray_check;

@@ -18,6 +18,7 @@ use relief_core::glam::{DVec3, Vec3};
 use relief_core::ray::{MaxMip, Ray, RayTracer, Trace, PACKET_LANES};
 use relief_core::{Error, Heightfield, Scale, Surface};
 use relief_tests::fixtures::{puget, puget_views};
+use relief_tests::ray_check::{corner_passes, RaysInput};
 
 const SURFACES: [Surface; 4] = [
     Surface::Triangles,
@@ -434,7 +435,14 @@ fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
             4, 3, 255, 253, 0, 0, 0, 64, 0, 0, 0, 64, 3, 255, 253, 0, 0, 0, 64, 0, 0, 0, 64, 251,
             37, 4, 3, 255, 0, 0, 0, 64, 0, 5, 5, 255, 254, 67, 0, 155,
         ];
-        let (w, h, s, o, d) = fuzz_input(&data);
+        let RaysInput {
+            w,
+            h,
+            samples: s,
+            origin: o,
+            dir: d,
+            ..
+        } = RaysInput::decode(&data).unwrap();
         assert_eq!((w, h), (6, 5));
         let hf = Heightfield::new(&s, w, h).unwrap();
         let mut mbuf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
@@ -461,7 +469,8 @@ fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
     }
 }
 
-/// A `rays` fuzz input (`fuzz/seeds/rays/wide-corner-pass-one-ulp`, in hex below): a 10 x 13 grid, `plane` surface, a ray with
+/// A `rays` fuzz input (the seed `fuzz/seeds/rays/wide-corner-pass-one-ulp`): a 10 x 13 grid,
+/// `plane` surface, a ray with
 /// subnormal `f32` direction components passing within a rounding unit of vertex (5, 4).
 /// Leaving cell (4, 3) its y exit comes one unit of `t` before its x exit, so it crosses cell
 /// (4, 4) for that one unit. The sixteen-wide walk tests (4, 4) (its interval is not empty);
@@ -471,11 +480,15 @@ fn wide_walk_skips_cells_a_ray_only_touches_at_its_start() {
 /// fewer" that `ray/wide.rs` states and the fuzz target checks.
 #[test]
 fn wide_walk_may_test_a_cell_crossed_for_a_rounding_unit_at_a_vertex() {
-    let hex = "08d70210ffff02060601000000000000005a00000048000078bf000000360000000000003f01000000000000000000000000010043000046040404003b0004f900bdbf0004800026bf000000003f0000ffffffffffff0000ff000000000000490400ffff0000000400";
-    let data: Vec<u8> = (0..hex.len() / 2)
-        .map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).unwrap())
-        .collect();
-    let (w, h, s, o, d) = fuzz_input(&data);
+    let data = include_bytes!("../../fuzz/seeds/rays/wide-corner-pass-one-ulp");
+    let RaysInput {
+        w,
+        h,
+        samples: s,
+        origin: o,
+        dir: d,
+        ..
+    } = RaysInput::decode(data).unwrap();
     assert_eq!((w, h, data[2] % 4), (10, 13, 2));
     let hf = Heightfield::new(&s, w, h).unwrap();
     let mut mbuf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
@@ -491,42 +504,6 @@ fn wide_walk_may_test_a_cell_crossed_for_a_rounding_unit_at_a_vertex() {
         assert_eq!(g.hit, n.hit, "{name}");
         assert_eq!((g.cells, n.cells), (4, 3), "{name}");
     }
-}
-
-/// A `rays` fuzz input (`fuzz/fuzz_targets/rays.rs`) decoded as the target does: the grid's
-/// width and height, its samples, and the ray's origin and direction.
-fn fuzz_input(data: &[u8]) -> (u32, u32, Vec<f32>, Vec3, Vec3) {
-    let f = |i: usize| f32::from_le_bytes([0, 1, 2, 3].map(|k| data[i + k]));
-    let (w, h) = (u32::from(data[0] % 12) + 2, u32::from(data[1] % 12) + 2);
-    let s = (0..w * h)
-        .map(|i| f32::from(data.get(28 + i as usize).copied().unwrap_or(0)) - 100.0)
-        .collect();
-    let o = Vec3::new(f(4), f(8), f(12));
-    (w, h, s, o, Vec3::new(f(16), f(20), f(24)))
-}
-
-/// The grid vertices (of a `w x h` grid with unit spacing at the origin) that the horizontal
-/// line of the ray from `o` along `d` passes ahead of `o` within a rounding unit of: a distance
-/// below 1e-12 of the vertex's and the origin's magnitude (plus one), far below any ray not
-/// aimed at the vertex. The fuzz target has the same function.
-fn corner_passes(o: DVec3, d: DVec3, w: u32, h: u32) -> usize {
-    let len = d.x.hypot(d.y);
-    if len == 0.0 {
-        return 0;
-    }
-    let (ux, uy) = (d.x / len, d.y / len);
-    let mut n = 0;
-    for j in 0..h {
-        for i in 0..w {
-            let (vx, vy) = (f64::from(i) - o.x, f64::from(j) - o.y);
-            let dist = (vx * uy - vy * ux).abs();
-            let ahead = vx * ux + vy * uy >= 0.0;
-            if ahead && dist <= 1e-12 * (1.0 + f64::from(i.max(j)) + o.x.abs().max(o.y.abs())) {
-                n += 1;
-            }
-        }
-    }
-    n
 }
 
 /// The AVX2 form of the sixteen-wide walk tests nodes in `f32`, with its intervals and heights

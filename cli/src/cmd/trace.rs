@@ -207,7 +207,7 @@ impl Wide {
 
 /// The path that traces a slice of max-mip rays without --no-packet.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum Packet {
+enum Packet {
     /// AVX-512 packets (`trace_maxmip_packet_avx512`), where the CPU has AVX-512F and DQ.
     #[value(name = "avx512")]
     Avx512,
@@ -240,13 +240,14 @@ impl Packet {
 
     /// Whether this CPU runs it.
     fn supported(self) -> bool {
-        #[cfg(target_arch = "x86_64")]
         match self {
-            Packet::Avx512 => return has_avx512(),
-            Packet::WideAvx2 => return std::is_x86_feature_detected!("avx2"),
-            Packet::Portable => {}
+            Packet::Avx512 => has_avx512(),
+            #[cfg(target_arch = "x86_64")]
+            Packet::WideAvx2 => std::is_x86_feature_detected!("avx2"),
+            #[cfg(not(target_arch = "x86_64"))]
+            Packet::WideAvx2 => false,
+            Packet::Portable => true,
         }
-        self == Packet::Portable
     }
 }
 
