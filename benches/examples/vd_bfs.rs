@@ -29,6 +29,16 @@
 //!   with the *x2* sphere tests (`straight`, `sse2`);
 //! - *pair prefetch*: the pair walk in `f64` on the library's records, prefetching the records
 //!   of each pushed child's two children (the same triangles);
+//! - *current, level records*: *current* on the library's records regrouped by level of the
+//!   bisection ([`by_level`]: each level's split vertices in a compact grid of their own, so a
+//!   cache line holds eight neighbours of one level instead of a row's eight samples);
+//! - *current packed*: *current* with each corner packed as row-major index, `x` and `y` in one
+//!   `u64`, so a triangle's output and a record's index are masks (*tables*: also the squared
+//!   x and y distances to the eye from per-frame tables);
+//! - *branch-free*: a stack walk that decides the children of every entry it visits, whatever
+//!   its kind, and selects the next entry, the stack size and the output position without a
+//!   data-dependent branch below the culled levels (*two-ended*: two such walks in one loop,
+//!   from the front and the back of the depth-first order, meeting in the middle);
 //! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
 //!   records, and `Refiner::triangles` (compact vertices, renumbered) for reference.
 //!
@@ -89,6 +99,10 @@ struct Frame<'a> {
     rec: &'a [[f32; 4]],
     /// The library's own linear 8-byte records (`pack_records`), for the `LIB` variant.
     lib: &'a [VertexRecord],
+    /// The same records by level ([`by_level`]): each level's split vertices in a compact
+    /// row-major grid of their own, and per level `(base, row stride, row shift, column shift)`.
+    lvl: &'a [VertexRecord],
+    lvl_tab: &'a [[u32; 4]],
     v: common::LeanView,
 }
 
@@ -113,10 +127,39 @@ const LIB_F64_X2S: u8 = 6;
 /// the child is pushed (their addresses need only the corners, not the decisions).
 const LIB_F64_PF: u8 = 7;
 
+/// [`LIB_F64`] on the records by level ([`by_level`]).
+const LVL_F64: u8 = 8;
+
 /// Stack entry kinds of [`Frame::dfs_pair`].
 const CULLED: u32 = 0;
 const LEAF: u32 = 1;
 const SPLIT: u32 = 2;
+thread_local! {
+    /// [`Frame::dfs_p`]'s decisions without and with planes to test, when it counts them.
+    static PATHS: [std::cell::Cell<u64>; 2] = const { [std::cell::Cell::new(0), std::cell::Cell::new(0)] };
+}
+
+/// The bottom entry of a branch-free walk's stack ([`Frame::dfs_bl`]).
+const STOP: u32 = 3;
+
+/// An entry of [`Frame::dfs_bl`]: a triangle, its level and kind, and the range of finest
+/// triangles it covers in depth-first order.
+#[derive(Clone, Copy, Default)]
+struct BlEntry {
+    t: Tri,
+    level: u32,
+    kind: u32,
+    lo: u32,
+    hi: u32,
+}
+
+/// One walk of [`Frame::dfs_bl`]: its stack, stack size, output position and current entry.
+struct BlWalk {
+    stack: [BlEntry; 64],
+    sp: usize,
+    n: usize,
+    cur: BlEntry,
+}
 
 #[inline(always)]
 fn xy(p: u32) -> (u32, u32) {
@@ -143,10 +186,15 @@ impl Frame<'_> {
     fn decide_in<const SRC: u8>(&self, m: u32, planes: u32, level: u32) -> Option<(bool, u32)> {
         let (x, y) = xy(m);
         let i = self.index(m) as usize;
-        if SRC == LIB || SRC == LIB_F64 {
-            let r = self.lib[i];
+        if SRC == LIB || SRC == LIB_F64 || SRC == LVL_F64 {
+            let r = if SRC == LVL_F64 {
+                let [base, stride, sy, sx] = self.lvl_tab[level as usize];
+                self.lvl[(base + (y >> sy) * stride + (x >> sx)) as usize]
+            } else {
+                self.lib[i]
+            };
             let erz = (r.error_value(), r.radius_value(), r.z);
-            if SRC == LIB_F64 {
+            if SRC == LIB_F64 || SRC == LVL_F64 {
                 return self.v.decide(&self.v.f64s, (x, y, level), erz, planes);
             }
             return self.v.decide(&self.v.f32s, (x, y, level), erz, planes);
@@ -415,6 +463,129 @@ impl Frame<'_> {
         no
     }
 
+    /// A corner packed for [`Frame::dfs_p`]: row-major index in the low 32 bits, `x` in bits
+    /// 32-47, `y` in bits 48-63 (the midpoint of a hypotenuse is the packed mean: every field's
+    /// sum is even, and none carries into the next).
+    #[inline(always)]
+    fn packed(&self, p: u32) -> u64 {
+        let (x, y) = xy(p);
+        u64::from(y * self.v.w + x) | u64::from(x) << 32 | u64::from(y) << 48
+    }
+
+    /// [`Frame::kind`] in `f64` on the library's records for a packed hypotenuse `l`-`r`
+    /// ([`Frame::packed`]); with `TAB`, the squared x and y distances to the eye from the
+    /// per-frame tables `tx`, `ty` (the same `f64` values the decision computes).
+    #[inline(always)]
+    fn kind_p<const TAB: bool, const COUNT: bool>(
+        &self,
+        l: u64,
+        r: u64,
+        planes: &mut u32,
+        level: u32,
+        tx: &[f64],
+        ty: &[f64],
+    ) -> u32 {
+        if level >= self.v.levels {
+            return LEAF;
+        }
+        let m = (l + r) >> 1;
+        let (x, y) = (((m >> 32) & 0xffff) as u32, (m >> 48) as u32);
+        let rec = self.lib[m as u32 as usize];
+        let erz = (rec.error_value(), rec.radius_value(), rec.z);
+        if COUNT {
+            // Decisions below the culled levels (or with no plane left) / with planes to test.
+            let k = usize::from(*planes != 0 && level < self.v.lazy_from);
+            PATHS.with(|p| p[k].set(p[k].get() + 1));
+        }
+        if *planes != 0 && level < self.v.lazy_from {
+            return match self.v.decide(&self.v.f64s, (x, y, level), erz, *planes) {
+                None => CULLED,
+                Some((split, p)) => {
+                    *planes = p;
+                    if split {
+                        SPLIT
+                    } else {
+                        LEAF
+                    }
+                }
+            };
+        }
+        let c = &self.v.f64s;
+        let (e, rr) = (f64::from(erz.0), f64::from(erz.1));
+        let dz = c.eye[2] - f64::from(erz.2);
+        let dxy = if TAB {
+            tx[x as usize] + ty[y as usize]
+        } else {
+            let (dx, dy) = (
+                c.eye[0] - f64::from(x) * c.sx,
+                c.eye[1] - f64::from(y) * c.sy,
+            );
+            dx * dx + dy * dy
+        };
+        let reach = e * c.k + rr;
+        if e > 0.0 && reach * reach > dxy + dz * dz {
+            SPLIT
+        } else {
+            LEAF
+        }
+    }
+
+    /// [`Frame::dfs_cur`] (as `LIB_F64`) with corners packed by [`Frame::packed`], so a
+    /// triangle's output and a record's index are masks, not index computations; with `TAB`,
+    /// [`Frame::kind_p`]'s distance tables, filled per frame here. `COUNT`: count the
+    /// decisions by path in `PATHS` (not timed).
+    fn dfs_p<const TAB: bool, const COUNT: bool>(
+        &self,
+        roots: [Tri; 2],
+        out: &mut [[u32; 3]],
+    ) -> usize {
+        let c = &self.v.f64s;
+        let mut tx = [0.0f64; 1025];
+        let mut ty = [0.0f64; 1025];
+        if TAB {
+            for (i, (a, b)) in tx.iter_mut().zip(ty.iter_mut()).enumerate() {
+                let (dx, dy) = (c.eye[0] - i as f64 * c.sx, c.eye[1] - i as f64 * c.sy);
+                *a = dx * dx;
+                *b = dy * dy;
+            }
+        }
+        type E = (u64, u64, u64, u32, u32, u32);
+        let mut stack = [(0u64, 0u64, 0u64, 0u32, 0u32, 0u32); 64];
+        let root = |t: Tri| {
+            let (l, r, a) = (self.packed(t.l), self.packed(t.r), self.packed(t.a));
+            let mut pl = t.planes;
+            let k = self.kind_p::<TAB, COUNT>(l, r, &mut pl, 0, &tx, &ty);
+            (l, r, a, pl, 0u32, k)
+        };
+        stack[0] = root(roots[1]);
+        let mut sp = 1usize;
+        let mut no = 0usize;
+        let mut cur: E = root(roots[0]);
+        loop {
+            let (l, r, a, planes, level, kind) = cur;
+            if kind == SPLIT {
+                let m = (l + r) >> 1;
+                let (mut pa, mut pb) = (planes, planes);
+                let ka = self.kind_p::<TAB, COUNT>(a, l, &mut pa, level + 1, &tx, &ty);
+                let kb = self.kind_p::<TAB, COUNT>(r, a, &mut pb, level + 1, &tx, &ty);
+                stack[sp] = (r, a, m, pb, level + 1, kb);
+                sp += 1;
+                cur = (a, l, m, pa, level + 1, ka);
+                continue;
+            }
+            if kind == LEAF {
+                out[no] = [l as u32, r as u32, a as u32];
+                no += 1;
+            }
+            if sp == 0 {
+                break;
+            }
+            sp -= 1;
+            cur = stack[sp];
+        }
+        no
+    }
+
     /// Whether the lookahead settles both children of the split of the triangle with split
     /// vertex `m` and apex `a`: the largest error among the children's split vertices (the
     /// record's bound for `a`'s side) fails SOAR's test against `m`'s own sphere, so by nesting
@@ -478,6 +649,164 @@ impl Frame<'_> {
         (nn, no)
     }
 
+    /// [`Frame::kind`] in `f64` on the library's records without a data-dependent branch
+    /// where no plane is left to test (below the culled levels): the record is loaded even
+    /// for a triangle on the finest level (at index 0), and the kind is arithmetic.
+    #[inline(always)]
+    fn kind_bl(&self, t: &mut Tri, level: u32) -> u32 {
+        if t.planes != 0 && level < self.v.lazy_from {
+            return self.kind::<LIB_F64>(t, level);
+        }
+        let deep = level < self.v.levels;
+        let m = ((t.l + t.r) >> 1) & 0u32.wrapping_sub(u32::from(deep));
+        let (x, y) = xy(m);
+        let rec = self.lib[(y * self.v.w + x) as usize];
+        let c = &self.v.f64s;
+        let (e, r) = (f64::from(rec.error_value()), f64::from(rec.radius_value()));
+        let (dx, dy, dz) = (
+            c.eye[0] - f64::from(x) * c.sx,
+            c.eye[1] - f64::from(y) * c.sy,
+            c.eye[2] - f64::from(rec.z),
+        );
+        let reach = e * c.k + r;
+        let split = (e > 0.0) & (reach * reach > dx * dx + dy * dy + dz * dz);
+        LEAF + u32::from(deep & split)
+    }
+
+    /// One step of a branch-free walk ([`Frame::dfs_bl`]): the current entry's children are
+    /// decided whatever its kind, the second (first when `!FWD`) is written to the stack top,
+    /// the triangle to the output slot, and the counters and the next entry are selected.
+    #[inline(always)]
+    fn step_bl<const FWD: bool>(&self, w: &mut BlWalk, out: &mut [[u32; 3]]) {
+        let e = w.cur;
+        let (mut a, mut b) = e.t.children(e.t.planes);
+        let ka = self.kind_bl(&mut a, e.level + 1);
+        let kb = self.kind_bl(&mut b, e.level + 1);
+        let mid = e.lo + ((e.hi - e.lo) >> 1);
+        let first = BlEntry {
+            t: a,
+            level: e.level + 1,
+            kind: ka,
+            lo: e.lo,
+            hi: mid,
+        };
+        let second = BlEntry {
+            t: b,
+            level: e.level + 1,
+            kind: kb,
+            lo: mid,
+            hi: e.hi,
+        };
+        let (visit, push) = if FWD {
+            (first, second)
+        } else {
+            (second, first)
+        };
+        let leaf = usize::from(e.kind == LEAF);
+        let tri = [self.index(e.t.l), self.index(e.t.r), self.index(e.t.a)];
+        if FWD {
+            out[w.n] = tri;
+            w.n += leaf;
+        } else {
+            out[w.n - 1] = tri;
+            w.n -= leaf;
+        }
+        w.stack[w.sp] = push;
+        let popped = w.stack[w.sp - 1];
+        let split = e.kind == SPLIT;
+        let mk = 0u32.wrapping_sub(u32::from(split));
+        let sel = |p: u32, q: u32| (p & mk) | (q & !mk);
+        w.sp = (w.sp + 1 - 2 * usize::from(!split)).min(63);
+        w.cur = BlEntry {
+            t: Tri {
+                l: sel(visit.t.l, popped.t.l),
+                r: sel(visit.t.r, popped.t.r),
+                a: sel(visit.t.a, popped.t.a),
+                planes: sel(visit.t.planes, popped.t.planes),
+            },
+            level: sel(visit.level, popped.level),
+            kind: sel(visit.kind, popped.kind),
+            lo: sel(visit.lo, popped.lo),
+            hi: sel(visit.hi, popped.hi),
+        };
+    }
+
+    /// The roots' entries and ranges (in finest triangles, depth-first order) for
+    /// [`Frame::dfs_bl`].
+    fn bl_roots(&self, roots: [Tri; 2]) -> [BlEntry; 2] {
+        let span = 1u32 << self.v.levels;
+        let mut out = [BlEntry::default(); 2];
+        for (i, mut t) in roots.into_iter().enumerate() {
+            let kind = self.kind::<LIB_F64>(&mut t, 0);
+            out[i] = BlEntry {
+                t,
+                level: 0,
+                kind,
+                lo: span * i as u32,
+                hi: span * (i as u32 + 1),
+            };
+        }
+        out
+    }
+
+    /// A depth-first walk without a data-dependent branch below the culled levels, deciding
+    /// in `f64` on the library's records as `grid_triangles` does (the same triangles in the
+    /// same order). `TWO`: two walks in one loop, one from the front of the depth-first order
+    /// writing forwards from the start of `out`, one from its back writing backwards from the
+    /// end, meeting where the first's next triangle starts at or after the second's (the
+    /// decisions are the walk's, so both see the same partition of the domain); the second's
+    /// triangles are then moved behind the first's. `out` needs two slots more than the count.
+    fn dfs_bl<const TWO: bool>(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
+        let [r0, r1] = self.bl_roots(roots);
+        let stop_a = BlEntry {
+            kind: STOP,
+            lo: u32::MAX,
+            hi: u32::MAX,
+            ..BlEntry::default()
+        };
+        let stop_b = BlEntry {
+            kind: STOP,
+            lo: 0,
+            hi: 0,
+            ..BlEntry::default()
+        };
+        let mut fa = BlWalk {
+            stack: [BlEntry::default(); 64],
+            sp: 2,
+            n: 0,
+            cur: r0,
+        };
+        fa.stack[0] = stop_a;
+        fa.stack[1] = r1;
+        if !TWO {
+            while fa.cur.kind != STOP {
+                self.step_bl::<true>(&mut fa, out);
+            }
+            return fa.n;
+        }
+        let cap = out.len();
+        let mut fb = BlWalk {
+            stack: [BlEntry::default(); 64],
+            sp: 2,
+            n: cap,
+            cur: r1,
+        };
+        fb.stack[0] = stop_b;
+        fb.stack[1] = r0;
+        loop {
+            if fa.cur.lo >= fb.cur.hi {
+                break;
+            }
+            self.step_bl::<true>(&mut fa, out);
+            if fa.cur.lo >= fb.cur.hi {
+                break;
+            }
+            self.step_bl::<false>(&mut fb, out);
+        }
+        out.copy_within(fb.n..cap, fa.n);
+        fa.n + cap - fb.n
+    }
+
     /// The whole frame level by level; returns the triangle count.
     fn bfs(&self, roots: [Tri; 2], a: &mut [Tri], b: &mut [Tri], out: &mut [[u32; 3]]) -> usize {
         a[..2].copy_from_slice(&roots);
@@ -510,6 +839,43 @@ fn side(m: u32, a: u32) -> u32 {
 }
 
 /// bfloat16 bits of `e >= 0`, rounded up.
+/// The linear records `lib` of a `side + 1` square grid (`side = 2^k`) regrouped by level of
+/// the bisection: level `2d` holds the centres of the `2^d x 2^d` squares of side `side / 2^d`
+/// (a `2^d`-wide grid), level `2d + 1` the midpoints of their edges (rows of `2^d + 1`, one
+/// row per multiple of half the side). Returns the records and per level `(base, stride, row
+/// shift, column shift)`: vertex `(x, y)` of level `l` is at `base + (y >> rs) * stride + (x
+/// >> cs)`.
+fn by_level(lib: &[VertexRecord], side: u32) -> (Vec<VertexRecord>, Vec<[u32; 4]>) {
+    let k = side.trailing_zeros();
+    let mut tab = Vec::new();
+    let mut base = 0u32;
+    for l in 0..2 * k {
+        let (d, t) = (l / 2, k - 1 - l / 2);
+        let (stride, rows, rs) = if l % 2 == 0 {
+            (1 << d, 1 << d, t + 1)
+        } else {
+            ((1 << d) + 1, (2 << d) + 1, t)
+        };
+        tab.push([base, stride, rs, t + 1]);
+        base += stride * rows;
+    }
+    let mut out = vec![VertexRecord::default(); base as usize];
+    let w = side + 1;
+    for y in 0..w {
+        for x in 0..w {
+            let t = (x | y).trailing_zeros();
+            if t >= k {
+                continue; // a corner: never split
+            }
+            let centre = (x >> t) & 1 == 1 && (y >> t) & 1 == 1;
+            let l = 2 * (k - 1 - t) + u32::from(!centre);
+            let [b, st, rs, cs] = tab[l as usize];
+            out[(b + (y >> rs) * st + (x >> cs)) as usize] = lib[(y * w + x) as usize];
+        }
+    }
+    (out, tab)
+}
+
 fn bf16_up(e: f32) -> u32 {
     let b = e.to_bits();
     (b >> 16) + u32::from(b & 0xffff != 0)
@@ -574,6 +940,11 @@ fn main() {
     let mut out_pair_x2 = vec![[0u32; 3]; bound + 1];
     let mut out_pair_pf = vec![[0u32; 3]; bound + 1];
     let mut out_cur = vec![[0u32; 3]; bound + 1];
+    let mut out_cur_lvl = vec![[0u32; 3]; bound + 1];
+    let mut out_bl = vec![[0u32; 3]; bound + 2];
+    let mut out_p = vec![[0u32; 3]; bound + 2];
+    let mut out_pt = vec![[0u32; 3]; bound + 2];
+    let mut out_bl2 = vec![[0u32; 3]; bound + 2];
     let mut out_cur_x2s = vec![[0u32; 3]; bound + 1];
     let mut out_cur_x2 = vec![[0u32; 3]; bound + 1];
     let mut out_pair_x2s = vec![[0u32; 3]; bound + 1];
@@ -611,10 +982,13 @@ fn main() {
         moving(&dem, &hf, &full, &lin_h, lib, &rec, roots, step, runs);
         return;
     }
+    let (lvl, lvl_tab) = by_level(lin_h.records().unwrap().0, side);
     for tau in [0.5f32, 1.0, 4.0] {
         let f = Frame {
             rec: &rec,
             lib: lin_h.records().unwrap().0,
+            lvl: &lvl,
+            lvl_tab: &lvl_tab,
             v: common::LeanView::new(&dem, &cam, tau, planes),
         };
         // Same triangles as the depth-first walk (as a multiset).
@@ -670,6 +1044,11 @@ fn main() {
         );
         for n in [
             f.dfs_cur::<LIB_F64>(roots, &mut out2),
+            f.dfs_cur::<LVL_F64>(roots, &mut out2),
+            f.dfs_p::<false, false>(roots, &mut out2),
+            f.dfs_p::<true, false>(roots, &mut out2),
+            f.dfs_bl::<false>(roots, &mut out2),
+            f.dfs_bl::<true>(roots, &mut out2),
             f.dfs_cur::<LIB_F64_X2S>(roots, &mut out2),
             f.dfs_cur::<LIB_F64_X2>(roots, &mut out2),
             f.dfs_pair::<LIB_F64_PF>(roots, &mut out2),
@@ -682,6 +1061,9 @@ fn main() {
                 "pair x2 f64 differs from grid_triangles"
             );
         }
+        PATHS.with(|p| p.iter().for_each(|c| c.set(0)));
+        f.dfs_p::<false, true>(roots, &mut out2);
+        let paths = PATHS.with(|p| [p[0].get(), p[1].get()]);
         let nl2 = f.dfs_pair::<LIB>(roots, &mut out2);
         assert_eq!(
             &out2[..nl2],
@@ -732,6 +1114,26 @@ fn main() {
             (
                 "current, library records, f64",
                 Box::new(|| f.dfs_cur::<LIB_F64>(roots, &mut out_cur)),
+            ),
+            (
+                "current, level records, f64",
+                Box::new(|| f.dfs_cur::<LVL_F64>(roots, &mut out_cur_lvl)),
+            ),
+            (
+                "current packed, library records, f64",
+                Box::new(|| f.dfs_p::<false, false>(roots, &mut out_p)),
+            ),
+            (
+                "current packed tables, library records, f64",
+                Box::new(|| f.dfs_p::<true, false>(roots, &mut out_pt)),
+            ),
+            (
+                "branch-free, library records, f64",
+                Box::new(|| f.dfs_bl::<false>(roots, &mut out_bl)),
+            ),
+            (
+                "branch-free two-ended, library records, f64",
+                Box::new(|| f.dfs_bl::<true>(roots, &mut out_bl2)),
             ),
             (
                 "current x2 straight, library records, f64",
@@ -802,7 +1204,10 @@ fn main() {
                 warm[i] = warm[i].min(s.elapsed().as_secs_f64() * 1e3);
             }
         }
-        println!("tau={tau} px ({nt} triangles)");
+        println!(
+            "tau={tau} px ({nt} triangles; decisions without / with planes to test: {} / {})",
+            paths[0], paths[1]
+        );
         for (i, (name, _)) in variants.iter().enumerate() {
             println!(
                 "  {name:<36} {:>7} tris  cold {:7.3} ms {:6.1} M/s  warm {:7.3} ms {:6.1} M/s",
@@ -842,6 +1247,8 @@ fn moving(
             .map(|c| Frame {
                 rec,
                 lib,
+                lvl: &[],
+                lvl_tab: &[],
                 v: common::LeanView::new(dem, c, tau, common::lean_inputs(hf, full, c).planes),
             })
             .collect();
