@@ -38,7 +38,9 @@
 //! - *branch-free*: a stack walk that decides the children of every entry it visits, whatever
 //!   its kind, and selects the next entry, the stack size and the output position without a
 //!   data-dependent branch below the culled levels (*two-ended*: two such walks in one loop,
-//!   from the front and the back of the depth-first order, meeting in the middle);
+//!   from the front and the back of the depth-first order, meeting in the middle; *pairs*: the
+//!   same visiting splits only, a leaf that must wait for its first sibling's subtree pushed
+//!   as an entry of its own);
 //! - the library's `Refiner::grid_triangles` on the full layout, linear and interleaved
 //!   records, and `Refiner::triangles` (compact vertices, renumbered) for reference.
 //!
@@ -731,6 +733,122 @@ impl Frame<'_> {
         };
     }
 
+    /// One step of [`Frame::dfs_bp`]: pops an entry (a split, or a leaf whose writing waits on
+    /// its first sibling's subtree), decides its children whatever it is, and without a
+    /// data-dependent branch (below the culled levels) writes what comes next in the order (the
+    /// entry if a leaf; else its first child if a leaf, and its second too if the first does
+    /// not split and the second is a leaf), then pushes the second child (a split, or a leaf
+    /// behind a splitting first) and the first (a split). `FWD`: depth-first order, writing
+    /// forwards; else the reverse, writing backwards.
+    #[inline(always)]
+    fn step_bp<const FWD: bool>(&self, w: &mut BlWalk, out: &mut [[u32; 3]]) {
+        w.sp -= 1;
+        let e = w.stack[w.sp];
+        let (mut a, mut b) = e.t.children(e.t.planes);
+        let ka = self.kind_bl(&mut a, e.level + 1);
+        let kb = self.kind_bl(&mut b, e.level + 1);
+        let mid = e.lo + ((e.hi - e.lo) >> 1);
+        let ea = BlEntry {
+            t: a,
+            level: e.level + 1,
+            kind: ka,
+            lo: e.lo,
+            hi: mid,
+        };
+        let eb = BlEntry {
+            t: b,
+            level: e.level + 1,
+            kind: kb,
+            lo: mid,
+            hi: e.hi,
+        };
+        let (f, s) = if FWD { (ea, eb) } else { (eb, ea) };
+        let split = e.kind == SPLIT;
+        let f_split = f.kind == SPLIT;
+        let w0 = (!split & (e.kind == LEAF)) | (split & (f.kind == LEAF));
+        let w1 = split & !f_split & (s.kind == LEAF);
+        let mk = 0u32.wrapping_sub(u32::from(split));
+        let sel = |p: u32, q: u32| (p & mk) | (q & !mk);
+        let t0 = [
+            self.index(sel(f.t.l, e.t.l)),
+            self.index(sel(f.t.r, e.t.r)),
+            self.index(sel(f.t.a, e.t.a)),
+        ];
+        let t1 = [self.index(s.t.l), self.index(s.t.r), self.index(s.t.a)];
+        if FWD {
+            out[w.n] = t0;
+            w.n += usize::from(w0);
+            out[w.n] = t1;
+            w.n += usize::from(w1);
+        } else {
+            out[w.n - 1] = t0;
+            w.n -= usize::from(w0);
+            out[w.n - 1] = t1;
+            w.n -= usize::from(w1);
+        }
+        let p1 = split & ((f_split & (s.kind != CULLED)) | (!f_split & (s.kind == SPLIT)));
+        w.stack[w.sp] = s;
+        w.sp += usize::from(p1);
+        w.stack[w.sp] = f;
+        w.sp += usize::from(split & f_split);
+    }
+
+    /// [`Frame::dfs_bl`] with the steps of [`Frame::step_bp`]: an entry is a split or a
+    /// waiting leaf, so the children decided for nothing are only those of waiting leaves
+    /// (same triangles, same order).
+    fn dfs_bp<const TWO: bool>(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
+        let [r0, r1] = self.bl_roots(roots);
+        let stop_a = BlEntry {
+            kind: STOP,
+            lo: u32::MAX,
+            hi: u32::MAX,
+            ..BlEntry::default()
+        };
+        let stop_b = BlEntry {
+            kind: STOP,
+            lo: 0,
+            hi: 0,
+            ..BlEntry::default()
+        };
+        let mut fa = BlWalk {
+            stack: [BlEntry::default(); 64],
+            sp: 3,
+            n: 0,
+            cur: r0,
+        };
+        fa.stack[0] = stop_a;
+        fa.stack[1] = r1;
+        fa.stack[2] = r0;
+        if !TWO {
+            while fa.stack[fa.sp - 1].kind != STOP {
+                self.step_bp::<true>(&mut fa, out);
+            }
+            return fa.n;
+        }
+        let cap = out.len();
+        let mut fb = BlWalk {
+            stack: [BlEntry::default(); 64],
+            sp: 3,
+            n: cap,
+            cur: r1,
+        };
+        fb.stack[0] = stop_b;
+        fb.stack[1] = r0;
+        fb.stack[2] = r1;
+        loop {
+            if fa.stack[fa.sp - 1].lo >= fb.stack[fb.sp - 1].hi {
+                break;
+            }
+            self.step_bp::<true>(&mut fa, out);
+            if fa.stack[fa.sp - 1].lo >= fb.stack[fb.sp - 1].hi {
+                break;
+            }
+            self.step_bp::<false>(&mut fb, out);
+        }
+        out.copy_within(fb.n..cap, fa.n);
+        fa.n + cap - fb.n
+    }
+
     /// The roots' entries and ranges (in finest triangles, depth-first order) for
     /// [`Frame::dfs_bl`].
     fn bl_roots(&self, roots: [Tri; 2]) -> [BlEntry; 2] {
@@ -942,6 +1060,8 @@ fn main() {
     let mut out_cur = vec![[0u32; 3]; bound + 1];
     let mut out_cur_lvl = vec![[0u32; 3]; bound + 1];
     let mut out_bl = vec![[0u32; 3]; bound + 2];
+    let mut out_bp = vec![[0u32; 3]; bound + 2];
+    let mut out_bp2 = vec![[0u32; 3]; bound + 2];
     let mut out_p = vec![[0u32; 3]; bound + 2];
     let mut out_pt = vec![[0u32; 3]; bound + 2];
     let mut out_bl2 = vec![[0u32; 3]; bound + 2];
@@ -1047,6 +1167,8 @@ fn main() {
             f.dfs_cur::<LVL_F64>(roots, &mut out2),
             f.dfs_p::<false, false>(roots, &mut out2),
             f.dfs_p::<true, false>(roots, &mut out2),
+            f.dfs_bp::<false>(roots, &mut out2),
+            f.dfs_bp::<true>(roots, &mut out2),
             f.dfs_bl::<false>(roots, &mut out2),
             f.dfs_bl::<true>(roots, &mut out2),
             f.dfs_cur::<LIB_F64_X2S>(roots, &mut out2),
@@ -1126,6 +1248,14 @@ fn main() {
             (
                 "current packed tables, library records, f64",
                 Box::new(|| f.dfs_p::<true, false>(roots, &mut out_pt)),
+            ),
+            (
+                "branch-free pairs, library records, f64",
+                Box::new(|| f.dfs_bp::<false>(roots, &mut out_bp)),
+            ),
+            (
+                "branch-free pairs two-ended, library records, f64",
+                Box::new(|| f.dfs_bp::<true>(roots, &mut out_bp2)),
             ),
             (
                 "branch-free, library records, f64",
