@@ -733,7 +733,7 @@ impl Frame<'_> {
         };
     }
 
-    /// One step of [`Frame::dfs_bp`]: pops an entry (a split, or a leaf whose writing waits on
+    /// One step of [`Frame::dfs_bl`] with `PAIRS`: pops an entry (a split, or a leaf whose writing waits on
     /// its first sibling's subtree), decides its children whatever it is, and without a
     /// data-dependent branch (below the culled levels) writes what comes next in the order (the
     /// entry if a leaf; else its first child if a leaf, and its second too if the first does
@@ -793,62 +793,6 @@ impl Frame<'_> {
         w.sp += usize::from(split & f_split);
     }
 
-    /// [`Frame::dfs_bl`] with the steps of [`Frame::step_bp`]: an entry is a split or a
-    /// waiting leaf, so the children decided for nothing are only those of waiting leaves
-    /// (same triangles, same order).
-    fn dfs_bp<const TWO: bool>(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
-        let [r0, r1] = self.bl_roots(roots);
-        let stop_a = BlEntry {
-            kind: STOP,
-            lo: u32::MAX,
-            hi: u32::MAX,
-            ..BlEntry::default()
-        };
-        let stop_b = BlEntry {
-            kind: STOP,
-            lo: 0,
-            hi: 0,
-            ..BlEntry::default()
-        };
-        let mut fa = BlWalk {
-            stack: [BlEntry::default(); 64],
-            sp: 3,
-            n: 0,
-            cur: r0,
-        };
-        fa.stack[0] = stop_a;
-        fa.stack[1] = r1;
-        fa.stack[2] = r0;
-        if !TWO {
-            while fa.stack[fa.sp - 1].kind != STOP {
-                self.step_bp::<true>(&mut fa, out);
-            }
-            return fa.n;
-        }
-        let cap = out.len();
-        let mut fb = BlWalk {
-            stack: [BlEntry::default(); 64],
-            sp: 3,
-            n: cap,
-            cur: r1,
-        };
-        fb.stack[0] = stop_b;
-        fb.stack[1] = r0;
-        fb.stack[2] = r1;
-        loop {
-            if fa.stack[fa.sp - 1].lo >= fb.stack[fb.sp - 1].hi {
-                break;
-            }
-            self.step_bp::<true>(&mut fa, out);
-            if fa.stack[fa.sp - 1].lo >= fb.stack[fb.sp - 1].hi {
-                break;
-            }
-            self.step_bp::<false>(&mut fb, out);
-        }
-        out.copy_within(fb.n..cap, fa.n);
-        fa.n + cap - fb.n
-    }
-
     /// The roots' entries and ranges (in finest triangles, depth-first order) for
     /// [`Frame::dfs_bl`].
     fn bl_roots(&self, roots: [Tri; 2]) -> [BlEntry; 2] {
@@ -869,57 +813,70 @@ impl Frame<'_> {
 
     /// A depth-first walk without a data-dependent branch below the culled levels, deciding
     /// in `f64` on the library's records as `grid_triangles` does (the same triangles in the
-    /// same order). `TWO`: two walks in one loop, one from the front of the depth-first order
-    /// writing forwards from the start of `out`, one from its back writing backwards from the
-    /// end, meeting where the first's next triangle starts at or after the second's (the
-    /// decisions are the walk's, so both see the same partition of the domain); the second's
-    /// triangles are then moved behind the first's. `out` needs two slots more than the count.
-    fn dfs_bl<const TWO: bool>(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
+    /// same order), by [`Frame::step_bl`] (the current entry held apart) or, with `PAIRS`, by
+    /// [`Frame::step_bp`] (every entry on the stack: a split or a waiting leaf, so the children
+    /// decided for nothing are only those of waiting leaves). `TWO`: two walks in one loop, one
+    /// from the front of the depth-first order writing forwards from the start of `out`, one
+    /// from its back writing backwards from the end, meeting where the first's next triangle
+    /// starts at or after the second's (the decisions are the walk's, so both see the same
+    /// partition of the domain); the second's triangles are then moved behind the first's.
+    /// `out` needs two slots more than the count.
+    fn dfs_bl<const PAIRS: bool, const TWO: bool>(
+        &self,
+        roots: [Tri; 2],
+        out: &mut [[u32; 3]],
+    ) -> usize {
         let [r0, r1] = self.bl_roots(roots);
-        let stop_a = BlEntry {
-            kind: STOP,
-            lo: u32::MAX,
-            hi: u32::MAX,
-            ..BlEntry::default()
+        // A walk from the front (`fwd`) or the back: its stack bottom, its roots, its output
+        // position.
+        let walk = |fwd: bool, n: usize| {
+            let (first, then) = if fwd { (r0, r1) } else { (r1, r0) };
+            let end = if fwd { u32::MAX } else { 0 };
+            let mut w = BlWalk {
+                stack: [BlEntry::default(); 64],
+                sp: 2,
+                n,
+                cur: first,
+            };
+            w.stack[0] = BlEntry {
+                kind: STOP,
+                lo: end,
+                hi: end,
+                ..BlEntry::default()
+            };
+            w.stack[1] = then;
+            if PAIRS {
+                w.stack[2] = first;
+                w.sp = 3;
+            }
+            w
         };
-        let stop_b = BlEntry {
-            kind: STOP,
-            lo: 0,
-            hi: 0,
-            ..BlEntry::default()
+        // The entry a walk takes next.
+        let next = |w: &BlWalk| if PAIRS { w.stack[w.sp - 1] } else { w.cur };
+        let step = |w: &mut BlWalk, out: &mut [[u32; 3]], fwd: bool| match (PAIRS, fwd) {
+            (true, true) => self.step_bp::<true>(w, out),
+            (true, false) => self.step_bp::<false>(w, out),
+            (false, true) => self.step_bl::<true>(w, out),
+            (false, false) => self.step_bl::<false>(w, out),
         };
-        let mut fa = BlWalk {
-            stack: [BlEntry::default(); 64],
-            sp: 2,
-            n: 0,
-            cur: r0,
-        };
-        fa.stack[0] = stop_a;
-        fa.stack[1] = r1;
+        let mut fa = walk(true, 0);
         if !TWO {
-            while fa.cur.kind != STOP {
-                self.step_bl::<true>(&mut fa, out);
+            while next(&fa).kind != STOP {
+                step(&mut fa, out, true);
             }
             return fa.n;
         }
         let cap = out.len();
-        let mut fb = BlWalk {
-            stack: [BlEntry::default(); 64],
-            sp: 2,
-            n: cap,
-            cur: r1,
-        };
-        fb.stack[0] = stop_b;
-        fb.stack[1] = r0;
+        let mut fb = walk(false, cap);
         loop {
-            if fa.cur.lo >= fb.cur.hi {
+            if next(&fa).lo >= next(&fb).hi {
                 break;
             }
-            self.step_bl::<true>(&mut fa, out);
-            if fa.cur.lo >= fb.cur.hi {
+            step(&mut fa, out, true);
+            if next(&fa).lo >= next(&fb).hi {
                 break;
             }
-            self.step_bl::<false>(&mut fb, out);
+            step(&mut fb, out, false);
         }
         out.copy_within(fb.n..cap, fa.n);
         fa.n + cap - fb.n
@@ -1167,10 +1124,10 @@ fn main() {
             f.dfs_cur::<LVL_F64>(roots, &mut out2),
             f.dfs_p::<false, false>(roots, &mut out2),
             f.dfs_p::<true, false>(roots, &mut out2),
-            f.dfs_bp::<false>(roots, &mut out2),
-            f.dfs_bp::<true>(roots, &mut out2),
-            f.dfs_bl::<false>(roots, &mut out2),
-            f.dfs_bl::<true>(roots, &mut out2),
+            f.dfs_bl::<true, false>(roots, &mut out2),
+            f.dfs_bl::<true, true>(roots, &mut out2),
+            f.dfs_bl::<false, false>(roots, &mut out2),
+            f.dfs_bl::<false, true>(roots, &mut out2),
             f.dfs_cur::<LIB_F64_X2S>(roots, &mut out2),
             f.dfs_cur::<LIB_F64_X2>(roots, &mut out2),
             f.dfs_pair::<LIB_F64_PF>(roots, &mut out2),
@@ -1251,19 +1208,19 @@ fn main() {
             ),
             (
                 "branch-free pairs, library records, f64",
-                Box::new(|| f.dfs_bp::<false>(roots, &mut out_bp)),
+                Box::new(|| f.dfs_bl::<true, false>(roots, &mut out_bp)),
             ),
             (
                 "branch-free pairs two-ended, library records, f64",
-                Box::new(|| f.dfs_bp::<true>(roots, &mut out_bp2)),
+                Box::new(|| f.dfs_bl::<true, true>(roots, &mut out_bp2)),
             ),
             (
                 "branch-free, library records, f64",
-                Box::new(|| f.dfs_bl::<false>(roots, &mut out_bl)),
+                Box::new(|| f.dfs_bl::<false, false>(roots, &mut out_bl)),
             ),
             (
                 "branch-free two-ended, library records, f64",
-                Box::new(|| f.dfs_bl::<true>(roots, &mut out_bl2)),
+                Box::new(|| f.dfs_bl::<false, true>(roots, &mut out_bl2)),
             ),
             (
                 "current x2 straight, library records, f64",
