@@ -27,6 +27,8 @@
 //! - *current*: the pair walk with the visited triangle held apart (only the second child is
 //!   pushed: the library's walk since 2026-12-06), in `f64` on the library's records, alone and
 //!   with the *x2* sphere tests (`straight`, `sse2`);
+//! - *current leaves*: the library's walk form exactly (a split whose first child does not split
+//!   writes its leaf children at once), and *straight*, that case as straight-line code;
 //! - *pair prefetch*: the pair walk in `f64` on the library's records, prefetching the records
 //!   of each pushed child's two children (the same triangles);
 //! - *current, level records*: *current* on the library's records regrouped by level of the
@@ -588,6 +590,83 @@ impl Frame<'_> {
         no
     }
 
+    /// The library's walk form exactly (`Refiner::lean_walk`): [`Frame::dfs_cur`] where a
+    /// split whose first child does not split writes its leaf children at once and visits the
+    /// second child without a push (or writes it too). With `BF`, that case is straight-line
+    /// code: both children written to the output slots unconditionally and the position
+    /// advanced by their kinds, the next entry selected between the second child and the
+    /// stack top by masks (a stop entry at the stack bottom ends the walk). Same triangles,
+    /// same order.
+    fn dfs_leaves<const BF: bool>(&self, roots: [Tri; 2], out: &mut [[u32; 3]]) -> usize {
+        let mut stack = [(Tri::default(), 0u32, 0u32); 64];
+        let (mut r0, mut r1) = (roots[0], roots[1]);
+        let k0 = self.kind::<LIB_F64>(&mut r0, 0);
+        let k1 = self.kind::<LIB_F64>(&mut r1, 0);
+        stack[0] = (Tri::default(), 0, STOP);
+        stack[1] = (r1, 0, k1);
+        let mut sp = 2usize;
+        let mut no = 0usize;
+        let mut cur = (r0, 0u32, k0);
+        let idx = |t: &Tri| [self.index(t.l), self.index(t.r), self.index(t.a)];
+        loop {
+            let (t, level, kind) = cur;
+            if kind == SPLIT {
+                let (mut a, mut b) = t.children(t.planes);
+                let ka = self.kind::<LIB_F64>(&mut a, level + 1);
+                let kb = self.kind::<LIB_F64>(&mut b, level + 1);
+                let second = (b, level + 1, kb);
+                if ka == SPLIT {
+                    stack[sp] = second;
+                    sp += 1;
+                    cur = (a, level + 1, ka);
+                    continue;
+                }
+                if BF {
+                    out[no] = idx(&a);
+                    no += usize::from(ka == LEAF);
+                    out[no] = idx(&b);
+                    no += usize::from(kb == LEAF);
+                    let split = kb == SPLIT;
+                    let top = stack[sp - 1];
+                    let mk = 0u32.wrapping_sub(u32::from(split));
+                    let sel = |p: u32, q: u32| (p & mk) | (q & !mk);
+                    cur = (
+                        Tri {
+                            l: sel(b.l, top.0.l),
+                            r: sel(b.r, top.0.r),
+                            a: sel(b.a, top.0.a),
+                            planes: sel(b.planes, top.0.planes),
+                        },
+                        sel(level + 1, top.1),
+                        sel(kb, top.2),
+                    );
+                    sp -= usize::from(!split);
+                    continue;
+                }
+                if ka == LEAF {
+                    out[no] = idx(&a);
+                    no += 1;
+                }
+                if kb == SPLIT {
+                    cur = second;
+                    continue;
+                }
+                if kb == LEAF {
+                    out[no] = idx(&b);
+                    no += 1;
+                }
+            } else if kind == LEAF {
+                out[no] = idx(&t);
+                no += 1;
+            } else if kind == STOP {
+                break;
+            }
+            sp -= 1;
+            cur = stack[sp];
+        }
+        no
+    }
+
     /// Whether the lookahead settles both children of the split of the triangle with split
     /// vertex `m` and apex `a`: the largest error among the children's split vertices (the
     /// record's bound for `a`'s side) fails SOAR's test against `m`'s own sphere, so by nesting
@@ -1017,6 +1096,8 @@ fn main() {
     let mut out_cur = vec![[0u32; 3]; bound + 1];
     let mut out_cur_lvl = vec![[0u32; 3]; bound + 1];
     let mut out_bl = vec![[0u32; 3]; bound + 2];
+    let mut out_lv = vec![[0u32; 3]; bound + 2];
+    let mut out_lv2 = vec![[0u32; 3]; bound + 2];
     let mut out_bp = vec![[0u32; 3]; bound + 2];
     let mut out_bp2 = vec![[0u32; 3]; bound + 2];
     let mut out_p = vec![[0u32; 3]; bound + 2];
@@ -1122,6 +1203,8 @@ fn main() {
         for n in [
             f.dfs_cur::<LIB_F64>(roots, &mut out2),
             f.dfs_cur::<LVL_F64>(roots, &mut out2),
+            f.dfs_leaves::<false>(roots, &mut out2),
+            f.dfs_leaves::<true>(roots, &mut out2),
             f.dfs_p::<false, false>(roots, &mut out2),
             f.dfs_p::<true, false>(roots, &mut out2),
             f.dfs_bl::<true, false>(roots, &mut out2),
@@ -1197,6 +1280,14 @@ fn main() {
             (
                 "current, level records, f64",
                 Box::new(|| f.dfs_cur::<LVL_F64>(roots, &mut out_cur_lvl)),
+            ),
+            (
+                "current leaves, library records, f64",
+                Box::new(|| f.dfs_leaves::<false>(roots, &mut out_lv)),
+            ),
+            (
+                "current leaves straight, library records, f64",
+                Box::new(|| f.dfs_leaves::<true>(roots, &mut out_lv2)),
             ),
             (
                 "current packed, library records, f64",
