@@ -514,24 +514,31 @@ impl Frame<'_> {
                 }
             };
         }
-        let c = &self.v.f64s;
-        let (e, rr) = (f64::from(erz.0), f64::from(erz.1));
-        let dz = c.eye[2] - f64::from(erz.2);
-        let dxy = if TAB {
-            tx[x as usize] + ty[y as usize]
+        let dxy = TAB.then(|| tx[x as usize] + ty[y as usize]);
+        if self.sphere_f64((x, y), erz, dxy) {
+            SPLIT
         } else {
+            LEAF
+        }
+    }
+
+    /// SOAR's sphere test in `f64` as the library makes it, without a branch, for the split
+    /// vertex at `(x, y)` with error, radius and local height `erz`; `dxy`, if given, is its
+    /// squared horizontal distance to the eye (the same value, from a table).
+    #[inline(always)]
+    fn sphere_f64(&self, (x, y): (u32, u32), erz: (f32, f32, f32), dxy: Option<f64>) -> bool {
+        let c = &self.v.f64s;
+        let (e, r) = (f64::from(erz.0), f64::from(erz.1));
+        let dz = c.eye[2] - f64::from(erz.2);
+        let dxy = dxy.unwrap_or_else(|| {
             let (dx, dy) = (
                 c.eye[0] - f64::from(x) * c.sx,
                 c.eye[1] - f64::from(y) * c.sy,
             );
             dx * dx + dy * dy
-        };
-        let reach = e * c.k + rr;
-        if e > 0.0 && reach * reach > dxy + dz * dz {
-            SPLIT
-        } else {
-            LEAF
-        }
+        });
+        let reach = e * c.k + r;
+        (e > 0.0) & (reach * reach > dxy + dz * dz)
     }
 
     /// [`Frame::dfs_cur`] (as `LIB_F64`) with corners packed by [`Frame::packed`], so a
@@ -742,16 +749,8 @@ impl Frame<'_> {
         let m = ((t.l + t.r) >> 1) & 0u32.wrapping_sub(u32::from(deep));
         let (x, y) = xy(m);
         let rec = self.lib[(y * self.v.w + x) as usize];
-        let c = &self.v.f64s;
-        let (e, r) = (f64::from(rec.error_value()), f64::from(rec.radius_value()));
-        let (dx, dy, dz) = (
-            c.eye[0] - f64::from(x) * c.sx,
-            c.eye[1] - f64::from(y) * c.sy,
-            c.eye[2] - f64::from(rec.z),
-        );
-        let reach = e * c.k + r;
-        let split = (e > 0.0) & (reach * reach > dx * dx + dy * dy + dz * dz);
-        LEAF + u32::from(deep & split)
+        let erz = (rec.error_value(), rec.radius_value(), rec.z);
+        LEAF + u32::from(deep & self.sphere_f64((x, y), erz, None))
     }
 
     /// One step of a branch-free walk ([`Frame::dfs_bl`]): the current entry's children are
