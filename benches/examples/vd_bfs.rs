@@ -157,7 +157,8 @@ struct BlEntry {
     hi: u32,
 }
 
-/// One walk of [`Frame::dfs_bl`]: its stack, stack size, output position and current entry.
+/// One walk of [`Frame::dfs_bl`]: its stack, stack size, output position and the entry it visits
+/// next (without `PAIRS`; with it, the stack top is).
 struct BlWalk {
     stack: [BlEntry; 64],
     sp: usize,
