@@ -754,35 +754,43 @@ impl Frame<'_> {
         LEAF + u32::from(deep & self.sphere_f64((x, y), erz, None))
     }
 
-    /// One step of a branch-free walk ([`Frame::dfs_bl`]): the current entry's children are
-    /// decided whatever its kind, the second (first when `!FWD`) is written to the stack top,
-    /// the triangle to the output slot, and the counters and the next entry are selected.
+    /// The two children of entry `e` of a branch-free walk, each decided ([`Frame::kind_bl`])
+    /// and with its half of `e`'s range, in the walk's order: first child first when `FWD`,
+    /// second child first otherwise.
     #[inline(always)]
-    fn step_bl<const FWD: bool>(&self, w: &mut BlWalk, out: &mut [[u32; 3]]) {
-        let e = w.cur;
+    fn bl_children<const FWD: bool>(&self, e: &BlEntry) -> (BlEntry, BlEntry) {
         let (mut a, mut b) = e.t.children(e.t.planes);
-        let ka = self.kind_bl(&mut a, e.level + 1);
-        let kb = self.kind_bl(&mut b, e.level + 1);
+        let level = e.level + 1;
+        let (ka, kb) = (self.kind_bl(&mut a, level), self.kind_bl(&mut b, level));
         let mid = e.lo + ((e.hi - e.lo) >> 1);
         let first = BlEntry {
             t: a,
-            level: e.level + 1,
+            level,
             kind: ka,
             lo: e.lo,
             hi: mid,
         };
         let second = BlEntry {
             t: b,
-            level: e.level + 1,
+            level,
             kind: kb,
             lo: mid,
             hi: e.hi,
         };
-        let (visit, push) = if FWD {
+        if FWD {
             (first, second)
         } else {
             (second, first)
-        };
+        }
+    }
+
+    /// One step of a branch-free walk ([`Frame::dfs_bl`]): the current entry's children are
+    /// decided whatever its kind, the second (first when `!FWD`) is written to the stack top,
+    /// the triangle to the output slot, and the counters and the next entry are selected.
+    #[inline(always)]
+    fn step_bl<const FWD: bool>(&self, w: &mut BlWalk, out: &mut [[u32; 3]]) {
+        let e = w.cur;
+        let (visit, push) = self.bl_children::<FWD>(&e);
         let leaf = usize::from(e.kind == LEAF);
         let tri = [self.index(e.t.l), self.index(e.t.r), self.index(e.t.a)];
         if FWD {
@@ -823,25 +831,7 @@ impl Frame<'_> {
     fn step_bp<const FWD: bool>(&self, w: &mut BlWalk, out: &mut [[u32; 3]]) {
         w.sp -= 1;
         let e = w.stack[w.sp];
-        let (mut a, mut b) = e.t.children(e.t.planes);
-        let ka = self.kind_bl(&mut a, e.level + 1);
-        let kb = self.kind_bl(&mut b, e.level + 1);
-        let mid = e.lo + ((e.hi - e.lo) >> 1);
-        let ea = BlEntry {
-            t: a,
-            level: e.level + 1,
-            kind: ka,
-            lo: e.lo,
-            hi: mid,
-        };
-        let eb = BlEntry {
-            t: b,
-            level: e.level + 1,
-            kind: kb,
-            lo: mid,
-            hi: e.hi,
-        };
-        let (f, s) = if FWD { (ea, eb) } else { (eb, ea) };
+        let (f, s) = self.bl_children::<FWD>(&e);
         let split = e.kind == SPLIT;
         let f_split = f.kind == SPLIT;
         let w0 = (!split & (e.kind == LEAF)) | (split & (f.kind == LEAF));
