@@ -13,7 +13,7 @@
 //! (by anti-diagonal from the corner the ray enters by: a path through a 4 x 4 block is a
 //! monotone staircase), so the next child is the lowest set bit of the mask; the current node
 //! stays in registers and only nodes with children left go on the stack. The first cell hit
-//! ends the ray. Switches (each on unless set to `0`): `CHEAP_CELL`, cells tested by cutting
+//! ends the ray. Switches (each on unless set to `0`): `CHEAP_CELL`, cells tested (`LocalGrid::cell_pieces`) by cutting
 //! the ray's part inside the cell at the diagonal and intersecting each piece with its
 //! triangle's plane in `f64`, instead of the yardsticks' shared Moller-Trumbore test;
 //! `ONE_FMA`, one multiply-add per slab parameter; `U16_CELLS`, the cells' maxima as `u16`
@@ -72,7 +72,7 @@ impl Pyramid {
 struct Tracer {
     g: common::LocalGrid,
     p: Pyramid,
-    orders: [Order; 4],
+    orders: [(common::Order, __m512i); 4],
     v: Variant,
     nodes: std::cell::Cell<u64>,
     cells: std::cell::Cell<u64>,
@@ -90,52 +90,6 @@ struct Entry {
     mask: u32,
     ta: __m512,
     tb: __m512,
-}
-
-/// Child `c` (Morton order within a 4 x 4 block): its column and row.
-const CX: [f32; 16] = [
-    0., 1., 0., 1., 2., 3., 2., 3., 0., 1., 0., 1., 2., 3., 2., 3.,
-];
-const CY: [f32; 16] = [
-    0., 0., 1., 1., 0., 0., 1., 1., 2., 2., 3., 3., 2., 2., 3., 3.,
-];
-
-/// The children of a block in the order a ray of one direction octant crosses them: by
-/// anti-diagonal from the block's entry corner (a ray's path through a 4 x 4 block is a
-/// monotone staircase, one child per anti-diagonal, so this is the ray's order up to the
-/// margin's ties). Lane `j` holds child `morton[j]` at column `cx[j]`, row `cy[j]`.
-struct Order {
-    morton: [usize; 16],
-    cx: [f32; 16],
-    cy: [f32; 16],
-    /// `cx` and `cy` as integers.
-    ix: [u32; 16],
-    iy: [u32; 16],
-    idx: __m512i,
-}
-
-impl Order {
-    fn new(fx: bool, fy: bool) -> Order {
-        let mut k: Vec<usize> = (0..16).collect();
-        let key = |c: usize| {
-            let (x, y) = (CX[c] as usize, CY[c] as usize);
-            let x = if fx { 3 - x } else { x };
-            let y = if fy { 3 - y } else { y };
-            (x + y, c)
-        };
-        k.sort_by_key(|&c| key(c));
-        let morton: [usize; 16] = std::array::from_fn(|j| k[j]);
-        let idx: [i32; 16] = std::array::from_fn(|j| morton[j] as i32);
-        Order {
-            morton,
-            cx: std::array::from_fn(|j| CX[morton[j]]),
-            cy: std::array::from_fn(|j| CY[morton[j]]),
-            ix: std::array::from_fn(|j| CX[morton[j]] as u32),
-            iy: std::array::from_fn(|j| CY[morton[j]] as u32),
-            // SAFETY: same size, every bit pattern valid.
-            idx: unsafe { std::mem::transmute::<[i32; 16], __m512i>(idx) },
-        }
-    }
 }
 
 fn vec16(a: [f32; 16]) -> __m512 {
@@ -157,12 +111,12 @@ impl Tracer {
         d: [f32; 3],
     ) -> Option<f64> {
         let inv = [common::finite_inverse(d[0]), common::finite_inverse(d[1])];
-        let r64 = Ray64::new(o, d);
+        let r64 = common::Ray64::new(o, d);
         self.rays.set(self.rays.get() + 1);
         let (t0, t1) = self.g.clip(o, d, inv)?;
         let eps = 1e-5 * t1.abs().max(1.0);
         let (fx, fy) = (f32::from(d[0] < 0.0), f32::from(d[1] < 0.0));
-        let ord = &self.orders[usize::from(d[0] < 0.0) | usize::from(d[1] < 0.0) << 1];
+        let (ord, ord_idx) = &self.orders[usize::from(d[0] < 0.0) | usize::from(d[1] < 0.0) << 1];
         let (cx, cy) = (vec16(ord.cx), vec16(ord.cy));
         // Entry and exit plane offsets of each child, in child sizes from the block's corner.
         let ex_off = _mm512_add_ps(cx, _mm512_set1_ps(fx));
@@ -229,7 +183,7 @@ impl Tracer {
                 a.copy_from_slice(mx);
                 vec16(a)
             };
-            let max = _mm512_add_ps(_mm512_permutexvar_ps(ord.idx, raw), margin);
+            let max = _mm512_add_ps(_mm512_permutexvar_ps(*ord_idx, raw), margin);
             let open = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(ta, _mm512_add_ps(tb, epsv));
             let under = _mm512_cmp_ps_mask::<_CMP_LE_OQ>(low, max);
             (open & under, ta, tb)
@@ -270,7 +224,8 @@ impl Tracer {
                 let (a, b) = (arr16(cur.ta)[j], arr16(cur.tb)[j]);
                 self.cells.set(self.cells.get() + 1);
                 let hit = if CHEAP {
-                    self.cell(&r64, ix as usize, iy as usize, a - eps, b + eps)
+                    self.g
+                        .cell_pieces(&r64, ix as usize, iy as usize, a - eps, b + eps)
                 } else {
                     self.g
                         .cell(o, d, ix as usize, iy as usize, a - eps, b + eps)
@@ -304,7 +259,7 @@ impl Tracer {
 /// The variant's switches, each on unless its environment variable is `0`.
 #[derive(Clone, Copy)]
 struct Variant {
-    /// `CHEAP_CELL`: cells take [`Tracer::cell`] instead of the yardsticks' shared
+    /// `CHEAP_CELL`: cells take `LocalGrid::cell_pieces` instead of the yardsticks' shared
     /// Moller-Trumbore test.
     cheap_cell: bool,
     /// `ONE_FMA`: a node's slab parameters take one multiply-add each (per-node scalars
@@ -322,98 +277,6 @@ impl Variant {
             one_fma: on("ONE_FMA"),
             u16_cells: on("U16_CELLS"),
         }
-    }
-}
-
-/// A local ray in `f64`, with the inverses of its x and y components (infinite for zero).
-struct Ray64 {
-    o: [f64; 3],
-    d: [f64; 3],
-    inv: [f64; 2],
-}
-
-impl Ray64 {
-    fn new(o: [f32; 3], d: [f32; 3]) -> Ray64 {
-        let o = o.map(f64::from);
-        let d = d.map(f64::from);
-        Ray64 {
-            o,
-            d,
-            inv: [1.0 / d[0], 1.0 / d[1]],
-        }
-    }
-}
-
-impl Tracer {
-    /// The first hit of `r` with the two triangles of cell `(x, y)` (split along the diagonal
-    /// from `(x, y)` to `(x + 1, y + 1)`, as `LocalGrid::cell`), with `t` in `[ta, tb]`: the
-    /// ray's part inside the cell (slabs in `f64`) cut at the diagonal, each piece against its
-    /// triangle's plane, where the height above the plane is linear in `t`; the first piece
-    /// whose height changes sign (or starts at or below) holds the hit.
-    #[inline(always)]
-    fn cell(&self, r: &Ray64, x: usize, y: usize, ta: f32, tb: f32) -> Option<f64> {
-        let (z, w) = (&self.g.z, self.g.w);
-        let z00 = z[y * w + x] as f64;
-        let z10 = z[y * w + x + 1] as f64;
-        let z01 = z[(y + 1) * w + x] as f64;
-        let z11 = z[(y + 1) * w + x + 1] as f64;
-        let (xf, yf) = (x as f64, y as f64);
-        let slab = |k: usize, lo: f64| {
-            if r.d[k] == 0.0 {
-                if r.o[k] >= lo && r.o[k] <= lo + 1.0 {
-                    (f64::NEG_INFINITY, f64::INFINITY)
-                } else {
-                    (f64::INFINITY, f64::NEG_INFINITY)
-                }
-            } else {
-                let (a, b) = ((lo - r.o[k]) * r.inv[k], (lo + 1.0 - r.o[k]) * r.inv[k]);
-                (a.min(b), a.max(b))
-            }
-        };
-        let (ax, bx) = slab(0, xf);
-        let (ay, by) = slab(1, yf);
-        let slack = 1e-4 * (tb as f64).abs().max(1.0);
-        let t0 = ax.max(ay).max(ta as f64 - slack);
-        let t1 = bx.min(by).min(tb as f64 + slack);
-        if t0.is_nan() || t1.is_nan() || t0 > t1 {
-            return None;
-        }
-        // u - v along the ray: zero on the diagonal.
-        let (ou, ov) = (r.o[0] - xf, r.o[1] - yf);
-        let (du, dv) = (r.d[0], r.d[1]);
-        let side = |t: f64| (ou + du * t) - (ov + dv * t);
-        // Height above the plane of the triangle on side `lower` (u >= v) at `t`.
-        let above = |t: f64, lower: bool| {
-            let (u, v) = (ou + du * t, ov + dv * t);
-            let plane = if lower {
-                z00 + (z10 - z00) * u + (z11 - z10) * v
-            } else {
-                z00 + (z11 - z01) * u + (z01 - z00) * v
-            };
-            r.o[2] + r.d[2] * t - plane
-        };
-        let dd = du - dv;
-        let mut cuts = [t0, t1, t1];
-        let mut pieces = 1;
-        if dd != 0.0 {
-            let td = -(ou - ov) / dd;
-            if td > t0 && td < t1 {
-                cuts = [t0, td, t1];
-                pieces = 2;
-            }
-        }
-        for p in 0..pieces {
-            let (s, e) = (cuts[p], cuts[p + 1]);
-            let lower = side(0.5 * (s + e)) >= 0.0;
-            let (fs, fe) = (above(s, lower), above(e, lower));
-            if fs <= 0.0 {
-                return Some(s);
-            }
-            if fe <= 0.0 {
-                return Some(s + (e - s) * (fs / (fs - fe)));
-            }
-        }
-        None
     }
 }
 
@@ -444,12 +307,13 @@ fn main() {
     );
     let t = common::mip_yardstick("sixteen", |g| {
         let p = Pyramid::new(&g);
-        let orders = [
-            Order::new(false, false),
-            Order::new(true, false),
-            Order::new(false, true),
-            Order::new(true, true),
-        ];
+        let orders =
+            [(false, false), (true, false), (false, true), (true, true)].map(|(fx, fy)| {
+                let o = common::Order::new(fx, fy);
+                let idx: [i32; 16] = std::array::from_fn(|j| o.morton[j] as i32);
+                // SAFETY: same size, every bit pattern valid.
+                (o, unsafe { std::mem::transmute::<[i32; 16], __m512i>(idx) })
+            });
         Tracer {
             g,
             p,

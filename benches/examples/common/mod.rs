@@ -461,23 +461,56 @@ pub fn embree_views(dem: &relief_io::Dem) -> Vec<(&'static str, Vec<MipRay>)> {
             30.0,
         ),
     ];
-    let s = dem.scale;
     views
         .into_iter()
-        .map(|(name, eye, target, fov)| {
-            let cam = relief_core::Camera::new(eye, target, fov, 384, 256).unwrap();
-            let rays = (0..256)
-                .flat_map(|j| (0..384).map(move |i| (i, j)))
-                .map(|(i, j)| {
-                    let (o, d) = cam.ray(i, j);
-                    MipRay {
-                        ray: relief_core::ray::Ray::new(o, d).unwrap(),
-                        o: [o.x / s.dx, o.y / s.dy, o.z - s.z_offset],
-                        d: [d.x / s.dx, d.y / s.dy, d.z],
-                    }
-                })
-                .collect();
-            (name, rays)
+        .map(|(name, eye, target, fov)| (name, view_rays(dem, eye, target, fov)))
+        .collect()
+}
+
+/// `bench-peers/embree_trace.py`'s `low` view on `dem` (low flight: the eye 0.2% of the map's
+/// size above the highest sample within 1% of the map around the point a quarter of the way
+/// in, looking level towards `(0.95, 0.85)` of the map, fov 60), 384 x 256 rays.
+pub fn low_view(dem: &relief_io::Dem) -> (&'static str, Vec<MipRay>) {
+    use relief_core::glam::Vec3;
+    let (gw, gh) = (dem.width as usize, dem.height as usize);
+    let s = dem.scale;
+    let (ex, ey) = ((gw - 1) as f32 * s.dx, (gh - 1) as f32 * s.dy);
+    let (cx, cy) = (
+        (0.25 * (gw - 1) as f64) as usize,
+        (0.25 * (gh - 1) as f64) as usize,
+    );
+    let (rx, ry) = ((gw / 100).max(1), (gh / 100).max(1));
+    let mut near = f32::NEG_INFINITY;
+    for y in cy.saturating_sub(ry)..(cy + ry + 1).min(gh) {
+        for x in cx.saturating_sub(rx)..(cx + rx + 1).min(gw) {
+            near = near.max(dem.samples[y * gw + x] * s.z_scale + s.z_offset);
+        }
+    }
+    let ez = near + 0.002 * ex.max(ey);
+    let eye = Vec3::new(cx as f32 * s.dx, cy as f32 * s.dy, ez);
+    let target = Vec3::new(0.95 * ex, 0.85 * ey, ez);
+    ("low", view_rays(dem, eye, target, 60.0))
+}
+
+/// The 384 x 256 rays of a camera at `eye` looking at `target` with vertical field of view
+/// `fov` degrees, row by row, as [`MipRay`]s.
+fn view_rays(
+    dem: &relief_io::Dem,
+    eye: relief_core::glam::Vec3,
+    target: relief_core::glam::Vec3,
+    fov: f32,
+) -> Vec<MipRay> {
+    let s = dem.scale;
+    let cam = relief_core::Camera::new(eye, target, fov, 384, 256).unwrap();
+    (0..256)
+        .flat_map(|j| (0..384).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let (o, d) = cam.ray(i, j);
+            MipRay {
+                ray: relief_core::ray::Ray::new(o, d).unwrap(),
+                o: [o.x / s.dx, o.y / s.dy, o.z - s.z_offset],
+                d: [d.x / s.dx, d.y / s.dy, d.z],
+            }
         })
         .collect()
 }
@@ -534,6 +567,22 @@ pub struct LocalGrid {
 }
 
 impl LocalGrid {
+    /// The local heights of `t` and its size and height range.
+    pub fn of<T: Terrain>(t: &T) -> LocalGrid {
+        let z = local_heights(t);
+        let (zlo, zhi) = z_range(&z);
+        let (w, h) = (t.width(), t.height());
+        LocalGrid {
+            z,
+            w: w as usize,
+            h: h as usize,
+            cw: (w - 1) as f32,
+            ch: (h - 1) as f32,
+            zlo,
+            zhi,
+        }
+    }
+
     /// The highest of cell `(x, y)`'s four corners (the finest level of a maximum mipmap).
     pub fn cell_max(&self, x: usize, y: usize) -> f32 {
         let (z, w) = (&self.z, self.w);
@@ -682,17 +731,7 @@ pub fn mip_yardstick<Y: LocalTracer>(label: &str, make: impl FnOnce(LocalGrid) -
     let dem = puget();
     let (w, h) = (dem.width, dem.height);
     let hf = Heightfield::with_scale(&dem.samples, w, h, dem.scale).unwrap();
-    let z = local_heights(&hf);
-    let (zlo, zhi) = z_range(&z);
-    let y = make(LocalGrid {
-        z,
-        w: w as usize,
-        h: h as usize,
-        cw: (w - 1) as f32,
-        ch: (h - 1) as f32,
-        zlo,
-        zhi,
-    });
+    let y = make(LocalGrid::of(&hf));
     let mut buf = vec![0.0f32; MaxMip::len(w, h).unwrap()];
     let mip = MaxMip::build(&hf, &mut buf).unwrap();
     let tracer = RayTracer::new(&hf, relief_core::Surface::Triangles);
@@ -755,4 +794,149 @@ pub fn mip_yardstick<Y: LocalTracer>(label: &str, make: impl FnOnce(LocalGrid) -
         }
     }
     y
+}
+
+/// Child `c` (Morton order within a 4 x 4 block): its column and row (the ray yardsticks
+/// `mip_sixteen` and `mip_packet`).
+pub const CX: [f32; 16] = [
+    0., 1., 0., 1., 2., 3., 2., 3., 0., 1., 0., 1., 2., 3., 2., 3.,
+];
+pub const CY: [f32; 16] = [
+    0., 0., 1., 1., 0., 0., 1., 1., 2., 2., 3., 3., 2., 2., 3., 3.,
+];
+
+/// The children of a block in the order a ray of one direction octant crosses them: by
+/// anti-diagonal from the block's entry corner (a ray's path through a 4 x 4 block is a
+/// monotone staircase, one child per anti-diagonal, so this is the ray's order up to the
+/// margin's ties). Lane `j` holds child `morton[j]` at column `cx[j]`, row `cy[j]`.
+pub struct Order {
+    /// The Morton index of the child in lane `j`.
+    pub morton: [usize; 16],
+    /// Column of the child in lane `j`.
+    pub cx: [f32; 16],
+    /// Row of the child in lane `j`.
+    pub cy: [f32; 16],
+    /// `cx` and `cy` as integers.
+    pub ix: [u32; 16],
+    /// See `ix`.
+    pub iy: [u32; 16],
+}
+
+impl Order {
+    /// The order for a ray whose x (`fx`) and y (`fy`) directions are negative or not.
+    pub fn new(fx: bool, fy: bool) -> Order {
+        let mut k: Vec<usize> = (0..16).collect();
+        let key = |c: usize| {
+            let (x, y) = (CX[c] as usize, CY[c] as usize);
+            let x = if fx { 3 - x } else { x };
+            let y = if fy { 3 - y } else { y };
+            (x + y, c)
+        };
+        k.sort_by_key(|&c| key(c));
+        let morton: [usize; 16] = std::array::from_fn(|j| k[j]);
+        Order {
+            morton,
+            cx: std::array::from_fn(|j| CX[morton[j]]),
+            cy: std::array::from_fn(|j| CY[morton[j]]),
+            ix: std::array::from_fn(|j| CX[morton[j]] as u32),
+            iy: std::array::from_fn(|j| CY[morton[j]] as u32),
+        }
+    }
+}
+
+/// A local ray in `f64`, with the inverses of its x and y components (infinite for zero).
+#[derive(Clone, Copy)]
+pub struct Ray64 {
+    /// Origin.
+    pub o: [f64; 3],
+    /// Direction.
+    pub d: [f64; 3],
+    /// `1 / d` for x and y.
+    pub inv: [f64; 2],
+}
+
+impl Ray64 {
+    /// The `f64` ray of `f32` origin `o` and direction `d`.
+    pub fn new(o: [f32; 3], d: [f32; 3]) -> Ray64 {
+        let o = o.map(f64::from);
+        let d = d.map(f64::from);
+        Ray64 {
+            o,
+            d,
+            inv: [1.0 / d[0], 1.0 / d[1]],
+        }
+    }
+}
+
+impl LocalGrid {
+    /// The first hit of `r` with the two triangles of cell `(x, y)` (split along the diagonal
+    /// from `(x, y)` to `(x + 1, y + 1)`, as [`LocalGrid::cell`]), with `t` in `[ta, tb]`: the
+    /// ray's part inside the cell (slabs in `f64`) cut at the diagonal, each piece against its
+    /// triangle's plane, where the height above the plane is linear in `t`; the first piece
+    /// whose height changes sign (or starts at or below) holds the hit.
+    #[inline(always)]
+    pub fn cell_pieces(&self, r: &Ray64, x: usize, y: usize, ta: f32, tb: f32) -> Option<f64> {
+        let (z, w) = (&self.z, self.w);
+        let z00 = z[y * w + x] as f64;
+        let z10 = z[y * w + x + 1] as f64;
+        let z01 = z[(y + 1) * w + x] as f64;
+        let z11 = z[(y + 1) * w + x + 1] as f64;
+        let (xf, yf) = (x as f64, y as f64);
+        let slab = |k: usize, lo: f64| {
+            if r.d[k] == 0.0 {
+                if r.o[k] >= lo && r.o[k] <= lo + 1.0 {
+                    (f64::NEG_INFINITY, f64::INFINITY)
+                } else {
+                    (f64::INFINITY, f64::NEG_INFINITY)
+                }
+            } else {
+                let (a, b) = ((lo - r.o[k]) * r.inv[k], (lo + 1.0 - r.o[k]) * r.inv[k]);
+                (a.min(b), a.max(b))
+            }
+        };
+        let (ax, bx) = slab(0, xf);
+        let (ay, by) = slab(1, yf);
+        let slack = 1e-4 * (tb as f64).abs().max(1.0);
+        let t0 = ax.max(ay).max(ta as f64 - slack);
+        let t1 = bx.min(by).min(tb as f64 + slack);
+        if t0.is_nan() || t1.is_nan() || t0 > t1 {
+            return None;
+        }
+        // u - v along the ray: zero on the diagonal.
+        let (ou, ov) = (r.o[0] - xf, r.o[1] - yf);
+        let (du, dv) = (r.d[0], r.d[1]);
+        let side = |t: f64| (ou + du * t) - (ov + dv * t);
+        // Height above the plane of the triangle on side `lower` (u >= v) at `t`.
+        let above = |t: f64, lower: bool| {
+            let (u, v) = (ou + du * t, ov + dv * t);
+            let plane = if lower {
+                z00 + (z10 - z00) * u + (z11 - z10) * v
+            } else {
+                z00 + (z11 - z01) * u + (z01 - z00) * v
+            };
+            r.o[2] + r.d[2] * t - plane
+        };
+        let dd = du - dv;
+        let mut cuts = [t0, t1, t1];
+        let mut pieces = 1;
+        if dd != 0.0 {
+            let td = -(ou - ov) / dd;
+            if td > t0 && td < t1 {
+                cuts = [t0, td, t1];
+                pieces = 2;
+            }
+        }
+        for p in 0..pieces {
+            let (s, e) = (cuts[p], cuts[p + 1]);
+            let lower = side(0.5 * (s + e)) >= 0.0;
+            let (fs, fe) = (above(s, lower), above(e, lower));
+            if fs <= 0.0 {
+                return Some(s);
+            }
+            if fe <= 0.0 {
+                return Some(s + (e - s) * (fs / (fs - fe)));
+            }
+        }
+        None
+    }
 }
