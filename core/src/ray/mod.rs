@@ -436,7 +436,8 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
     /// it starts below the terrain, or enters the domain's prism through a side below it. Tested
     /// on its own so that a degenerate interval (a ray that enters below the lowest height, where
     /// the clipped interval shrinks to the point `t0`) is not lost to rounding of the per-cell
-    /// intervals. Rays starting above the highest sample skip the test.
+    /// intervals. Rays starting above the highest sample skip the test, and so do starts above
+    /// their cell's highest corner (no surface of the cell reaches them).
     #[inline]
     pub(crate) fn start_hit(&self, ray: &Ray, lr: &LocalRay) -> Option<Hit> {
         let z0 = lr.z(lr.t0);
