@@ -448,16 +448,10 @@ impl<'t, T: Terrain> RayTracer<'t, T> {
         let fy = lr.o.y + lr.t0 * lr.d.y;
         let cx = (libm::floor(fx).max(0.0) as u32).min(self.cells.x - 1);
         let cy = (libm::floor(fy).max(0.0) as u32).min(self.cells.y - 1);
-        let c = self.corners(cx, cy);
-        // Every surface of a cell lies at or below its highest corner (each is a weighted
-        // mean of corners, or a corner), so a start clearly above that corner is above the
-        // surface: no exact test. The room (1e-9 relative, far above the tests' rounding)
-        // leaves every start the test could find on or below the surface to the test.
-        let top = c[0].max(c[1]).max(c[2]).max(c[3]);
-        if z0 > top + (top.abs() + 1.0) * 1e-9 {
-            return None;
-        }
-        let h = cell::intersect(self.surface, lr, cx, cy, &c, lr.t0, lr.t0)?;
+        // The one-point interval through the cell test every walk's cells take: its
+        // bounding-box reject skips the exact test for a start above the cell's highest
+        // corner, where no surface of the cell reaches.
+        let h = self.test_cell(lr, cx, cy, lr.t0, lr.t0)?;
         Some(self.make_hit(ray, cx, cy, h))
     }
 

@@ -582,10 +582,10 @@ fn hard_start_inside_terrain() {
 fn hard_start_on_its_cells_highest_corner() {
     // Heights fall along x and y: the start cell (2, 2)'s highest corner is the start's own
     // vertex (2, 2), at 78, below the grid's highest sample (100), so the start test runs. A
-    // start exactly on that corner is on every surface: a hit at the start (the start test
-    // leaves a start within its room of the cell's highest corner to the exact test; the walk
-    // would also find this hit at its first cell), and a start clearly above it, heading up
-    // and away, misses. A shortcut that skipped starts below that corner fails
+    // start exactly on that corner is on every surface: a hit at the start (the start test's
+    // bounding-box reject, `RayTracer::test_cell`, passes a start at the cell's highest corner
+    // to the exact test; the walk would also find this hit at its first cell), and a start
+    // clearly above it, heading up and away, misses. A shortcut that skipped starts below that corner fails
     // `hard_start_inside_terrain` (the start below the lowest sample).
     let s = grid(6, 6, |x, y| 100.0 - (x * 10 + y) as f32);
     let hf = Heightfield::new(&s, 6, 6).unwrap();
